@@ -1,0 +1,66 @@
+#pragma once
+// A rigid body about its fixed point O (THEORY §1): the inertia J in body axes.
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "trompo/errors.hpp"
+
+namespace trompo {
+
+template <class Scalar_>
+class RigidBody {
+ public:
+  using Scalar = Scalar_;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+
+  /// Principal moments (J1, J2, J3) along the body axes.
+  explicit RigidBody(const Vector3& principal) : RigidBody(Matrix3(principal.asDiagonal())) {}
+
+  /// A full inertia tensor about O in body axes. It must be finite, symmetric,
+  /// positive definite and obey the triangle inequality of principal moments
+  /// (J1 + J2 ≥ J3 and permutations; the disk limit J1 + J2 = J3 is allowed).
+  explicit RigidBody(const Matrix3& inertia) : J_(inertia) {
+    using std::abs;
+    if (!detail::all_finite(J_)) detail::fail("inertia: non-finite entry in ", detail::to_text(J_));
+    const Scalar scale = J_.cwiseAbs().maxCoeff();
+    const Scalar tol = Scalar(64) * Eigen::NumTraits<Scalar>::epsilon() * scale;
+    if (!((J_ - J_.transpose()).cwiseAbs().maxCoeff() <= tol))
+      detail::fail("inertia: not symmetric, ", detail::to_text(J_));
+    J_ = (J_ + J_.transpose()).eval() / Scalar(2);
+    const Vector3 m = Eigen::SelfAdjointEigenSolver<Matrix3>(J_, Eigen::EigenvaluesOnly).eigenvalues();
+    if (!(m.minCoeff() > 0))
+      detail::fail("inertia: not positive definite, principal moments ", detail::to_text(m));
+    // m is sorted ascending: the binding inequality is m0 + m1 ≥ m2.
+    if (!(m(0) + m(1) >= m(2) - tol))
+      detail::fail("inertia: principal moments ", detail::to_text(m),
+                   " break the triangle inequality J1 + J2 >= J3");
+    J_inv_ = J_.inverse();
+    diagonal_ = J_.isDiagonal(Scalar(0));
+  }
+
+  const Matrix3& inertia() const { return J_; }
+  const Matrix3& inertia_inverse() const { return J_inv_; }
+  /// True when J is diagonal (then products with J are three multiplications).
+  bool is_diagonal() const { return diagonal_; }
+
+  /// Π = J Ω, the body momentum.
+  Vector3 momentum(const Vector3& omega) const {
+    if (diagonal_) return J_.diagonal().cwiseProduct(omega);
+    return J_ * omega;
+  }
+  /// ½ Ω·JΩ
+  Scalar kinetic_energy(const Vector3& omega) const { return omega.dot(momentum(omega)) / 2; }
+
+  template <class NewScalar>
+  RigidBody<NewScalar> cast() const {
+    return RigidBody<NewScalar>(Eigen::Matrix<NewScalar, 3, 3>(J_.template cast<NewScalar>()));
+  }
+
+ private:
+  Matrix3 J_;
+  Matrix3 J_inv_;
+  bool diagonal_ = false;
+};
+
+}  // namespace trompo

@@ -1,0 +1,114 @@
+#pragma once
+// Small-angle coefficients of the rotation formulas (THEORY §2), evaluated without 0/0.
+//
+// Every coefficient below is an even function of θ. Below `small_angle<Scalar>::theta`
+// it is taken from its Taylor series in θ² (Horner form, terms through θ¹²); above, from
+// the closed form. The two branches are tied together as follows (STYLE item 5):
+//   - truncation: the first omitted term is below θ¹⁴/14! ≈ 1e-21 relative at θ = 1/4,
+//     under the epsilon of every Scalar we support (float, double, 80-bit long double);
+//   - cancellation: the worst closed form, (θ − sin θ)/θ³, loses about 6ε/θ² relative,
+//     i.e. ≤ 100ε just above θ = 1/4.
+// So both branches agree to ~1e-14 relative in double at the switch, which keeps the
+// Newton tangents (THEORY [T3]) smooth across it.
+#include <array>
+#include <cmath>
+#include <cstddef>
+
+namespace trompo::detail {
+
+template <class Scalar>
+struct small_angle {
+  /// Below this angle the series are used (same for every Scalar: see above).
+  static constexpr Scalar theta = Scalar(0.25);
+};
+
+/// Horner evaluation of c[0] + c[1] x + c[2] x² + … for x = θ². The coefficients are
+/// exact rationals written in long double and rounded once to Scalar.
+template <class Scalar, std::size_t N>
+constexpr Scalar horner(Scalar x, const std::array<long double, N>& c) {
+  Scalar sum = Scalar(c[N - 1]);
+  for (std::size_t k = N - 1; k-- > 0;) sum = Scalar(c[k]) + x * sum;
+  return sum;
+}
+
+/// sin θ / θ  (the "a" coefficient of exp, eq. (8)).
+template <class Scalar>
+Scalar sinc(Scalar theta) {
+  using std::sin;
+  if (std::abs(theta) < small_angle<Scalar>::theta) {
+    const Scalar x = theta * theta;
+    return horner(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L});
+  }
+  return sin(theta) / theta;
+}
+
+/// (1 − cos θ) / θ²  (the "b" coefficient of exp, eq. (8), and of T, THEORY §2).
+template <class Scalar>
+Scalar one_minus_cos_over_sq(Scalar theta) {
+  using std::cos;
+  if (std::abs(theta) < small_angle<Scalar>::theta) {
+    const Scalar x = theta * theta;
+    return horner(x, std::array<long double, 7>{1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L});
+  }
+  return (Scalar(1) - cos(theta)) / (theta * theta);
+}
+
+/// (θ − sin θ) / θ³  (the "c" coefficient of the right tangent T, THEORY §2).
+template <class Scalar>
+Scalar theta_minus_sin_over_cube(Scalar theta) {
+  using std::sin;
+  if (std::abs(theta) < small_angle<Scalar>::theta) {
+    const Scalar x = theta * theta;
+    return horner(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+  }
+  return (theta - sin(theta)) / (theta * theta * theta);
+}
+
+/// (1 − (θ/2) cot(θ/2)) / θ²  (the x̂² coefficient of the inverse tangent T⁻¹).
+/// Series: Σ |B_2k| θ^(2k−2) / (2k)!, Bernoulli numbers.
+template <class Scalar>
+Scalar inverse_tangent_coefficient(Scalar theta) {
+  using std::cos;
+  using std::sin;
+  if (std::abs(theta) < small_angle<Scalar>::theta) {
+    const Scalar x = theta * theta;
+    return horner(x, std::array<long double, 7>{1.0L / 12, 1.0L / 720, 1.0L / 30240, 1.0L / 1209600, 1.0L / 47900160, 691.0L / 1307674368000.0L, 1.0L / 74724249600.0L});
+  }
+  const Scalar half = theta / 2;
+  return (Scalar(1) - half * cos(half) / sin(half)) / (theta * theta);
+}
+
+/// κ(θ) = sin(θ/2)/(θ/2), the Simo-κ projection factor, eq. (19).
+template <class Scalar>
+Scalar kappa(Scalar theta) {
+  return sinc(theta / 2);
+}
+
+/// 1 − κ(θ), without cancellation (needed by the collocation root, THEORY [T2]).
+template <class Scalar>
+Scalar one_minus_kappa(Scalar theta) {
+  const Scalar x = theta * theta / 4;  // (θ/2)²
+  if (std::abs(theta) < 2 * small_angle<Scalar>::theta) {
+    // 1 − sinc(y) = y²/3! − y⁴/5! + …,  y = θ/2
+    return x * horner(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+  }
+  return Scalar(1) - kappa(theta);
+}
+
+/// κ′(θ) / θ = ((θ/2) cos(θ/2) − sin(θ/2)) / (θ³/2), about −1/12 near 0 (THEORY [T3]).
+/// Returned divided by θ so that ∇κ = (κ′/θ) Θ has no 0/0.
+template <class Scalar>
+Scalar kappa_prime_over_theta(Scalar theta) {
+  using std::cos;
+  using std::sin;
+  const Scalar y = theta / 2;
+  if (std::abs(y) < small_angle<Scalar>::theta) {
+    // d/dθ sinc(θ/2) = ½ sinc′(y);  sinc′(y)/y = −1/3 + y²/30 − y⁴/840 + …;  /θ = /(2y)
+    const Scalar x = y * y;
+    return horner(x, std::array<long double, 7>{-1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L}) /
+           4;
+  }
+  return (y * cos(y) - sin(y)) / (theta * theta * theta / 2);
+}
+
+}  // namespace trompo::detail

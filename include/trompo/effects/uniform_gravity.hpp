@@ -1,0 +1,61 @@
+#pragma once
+// Uniform gravity on a body with a fixed point: V(Λ) = Mgl γ·ΛE, eq. (6).
+#include <Eigen/Core>
+
+#include "trompo/effects/effect.hpp"
+#include "trompo/errors.hpp"
+#include "trompo/so3.hpp"
+
+namespace trompo {
+
+template <class Scalar_>
+class UniformGravity {
+ public:
+  using Scalar = Scalar_;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  using kind = potential_kind;
+  /// V is linear in Λ, so f(ξ) = V(Λ_n exp(ξΘ̂)) = A + B cos ξθ + C sin ξθ (THEORY [T2]).
+  static constexpr bool linear_in_rotation = true;
+
+  /// Mgl = M g l (any finite value; 0 still costs the arithmetic: a free body is a scene
+  /// without gravity), E = body direction from O to the centre of mass, up =
+  /// spatial unit vector γ pointing up. E and up are normalised; zero or non-finite
+  /// vectors are rejected.
+  UniformGravity(Scalar Mgl, const Vector3& E, const Vector3& up = Vector3::UnitZ())
+      : Mgl_(Mgl), E_(unit(E, "gravity: centre-of-mass direction E")), up_(unit(up, "gravity: up vector")) {
+    if (!std::isfinite(static_cast<double>(Mgl))) detail::fail("gravity: non-finite Mgl ", Mgl);
+    load_ = -Mgl_ * up_;  // 𝐠 = −Mgl γ, the paper's load vector
+  }
+
+  Scalar Mgl() const { return Mgl_; }
+  const Vector3& com_direction() const { return E_; }
+  const Vector3& up() const { return up_; }
+
+  /// b = Λ_nᵀ𝐠, the load in the body frame of step n ([T1]).
+  struct Cache {
+    Vector3 b;
+  };
+  Cache cache(const Matrix3& Lambda_n, Scalar /*t_mid*/) const { return {Lambda_n.transpose() * load_}; }
+
+  /// V(Λ_n R) = Mgl γ·Λ_n R E = −b·(R E)
+  Scalar potential(const Cache& c, const Matrix3& R) const { return -c.b.dot(R * E_); }
+  /// (R E) × b: the torque E × Λᵀ𝐠 at Λ_n R, expressed in frame n ([T1]).
+  Vector3 torque(const Cache& c, const Matrix3& R) const { return (R * E_).cross(c.b); }
+  /// ∂/∂w of (R exp(ŵ) E) × b = b̂ R Ê  (the gravity block of [T3]).
+  Matrix3 torque_jacobian(const Cache& c, const Matrix3& R) const {
+    return SO3<Scalar>::hat(c.b) * R * SO3<Scalar>::hat(E_);
+  }
+
+ private:
+  static Vector3 unit(const Vector3& v, const char* what) {
+    if (!detail::all_finite(v) || !(v.norm() > 0)) detail::fail(what, " must be finite and non-zero, got ", detail::to_text(v));
+    return v.normalized();
+  }
+  Scalar Mgl_;
+  Vector3 E_;
+  Vector3 up_;
+  Vector3 load_;
+};
+
+}  // namespace trompo

@@ -1,0 +1,17 @@
+#pragma once
+// trompo: structure-preserving integrators for nonlinear rigid-body rotation.
+// The umbrella header; each part is usable on its own.
+#include "trompo/body.hpp"
+#include "trompo/effects/uniform_gravity.hpp"
+#include "trompo/errors.hpp"
+#include "trompo/newton.hpp"
+#include "trompo/scene.hpp"
+#include "trompo/so3.hpp"
+#include "trompo/state.hpp"
+#include "trompo/stepper.hpp"
+
+namespace trompo {
+/// The heavy top: a body under uniform gravity.
+template <class Scalar>
+using HeavyTop = Scene<Scalar, UniformGravity<Scalar>>;
+}  // namespace trompo

@@ -3,7 +3,7 @@
 //
 // Convergence is judged on both the correction and the residual (STYLE item 8):
 // an iterate is accepted when ‖R‖ ≤ residual_tolerance·scale and the last correction
-// ‖δ‖ ≤ step_tolerance·(‖x‖ + ‖x⁰‖ + tiny). Iterations are capped; the tangent is
+// ‖δ‖ ≤ step_tolerance·(size of the increment). Iterations are capped; the tangent is
 // checked for singularity; non-finite values stop the solve. Nothing here throws.
 #include <Eigen/Core>
 #include <Eigen/LU>
@@ -64,13 +64,14 @@ namespace detail {
 
 /// Solves R(x) = 0 from x. `eval(x, R, K, scale)` fills the residual, its tangent and
 /// the residual's natural scale, and returns false if x is outside the domain.
+/// `x_scale` is the size against which a correction is judged (the increment's size).
 template <class Scalar, class Eval>
-StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const NewtonOptions<Scalar>& opt) {
+StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const NewtonOptions<Scalar>& opt,
+                          Scalar x_scale) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   StepReport<Scalar> rep;
   const Scalar tiny = std::numeric_limits<Scalar>::min() / std::numeric_limits<Scalar>::epsilon();
-  const Scalar x0_norm = x.norm();
   Vector3 R;
   Matrix3 K;
   Scalar scale(1);
@@ -87,12 +88,12 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
       return rep;
     }
     const bool small_residual = r <= opt.residual_tolerance * scale;
-    const bool small_step = k == 0 || last_step <= opt.step_tolerance * (x.norm() + x0_norm + tiny);
+    const bool small_step = k == 0 || last_step <= opt.step_tolerance * (x_scale + tiny);
     if (small_residual && small_step) return rep;
     // Stalled at round-off: the correction no longer moves x, and the residual is as
     // small as the conditioning of K allows (√ε·scale at worst). Nothing more to gain.
     const bool stalled =
-        k > 0 && last_step <= Scalar(8) * std::numeric_limits<Scalar>::epsilon() * (x.norm() + tiny);
+        k > 0 && last_step <= Scalar(8) * std::numeric_limits<Scalar>::epsilon() * (x_scale + tiny);
     if (stalled && r <= std::sqrt(std::numeric_limits<Scalar>::epsilon()) * scale) return rep;
     if (rep.iterations >= opt.max_iterations) {
       rep.status = StepStatus::not_converged;

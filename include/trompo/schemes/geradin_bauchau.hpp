@@ -77,16 +77,20 @@ class GBResidual {
 
   explicit GBResidual(const StepData<Scene>& d) : d_(d) {}
 
-  bool operator()(const Vector3& e, Vector3& R, Matrix3& K, Scalar& scale) const {
+  /// [T4] or [T5] at e = hΩ_n/2 + z. Newton's unknown is z, the departure from the
+  /// rigid rotation, so that Ω_{n+1} = 4e/h − Ω_n = Ω_n + 4z/h is a small correction
+  /// (see SimoResidual: cancelling two large numbers biases the round-off).
+  bool operator()(const Vector3& z, Vector3& R, Matrix3& K, Scalar& scale) const {
     const Scene& scene = d_.scene;
     const Scalar h = d_.h;
+    const Vector3 e = (h / Scalar(2)) * d_.omega_n + z;
     const Matrix3& J = scene.body().inertia();
     HalfRotation<Scalar> half;
     if (!half.set(e)) return false;
     const Matrix3& F = half.F;
 
     if constexpr (!paper) {
-      const Vector3 omega_next = Scalar(4) * e / h - d_.omega_n;
+      const Vector3 omega_next = d_.omega_n + Scalar(4) * z / h;  // Ω_{n+1} = 4e/h − Ω_n
       const Vector3 Pi_next = scene.momentum(omega_next);
       const Vector3 FtPi_n = F.transpose() * d_.Pi_n;
       R = F * Pi_next - FtPi_n;                                          // [T4] momentum part
@@ -146,10 +150,13 @@ StepReport<typename Scene::Scalar> gb_step(const Scene& scene, const State<typen
   const Vector3 Theta0 = d.predicted_increment();
   const Scalar theta0 = Theta0.norm();
   // e = n sin(θ/2) = Θ · ½ sinc(θ/2); capped inside the domain |e| < 1.
-  Vector3 e = Theta0 * (sinc(theta0 / 2) / 2);
-  if (e.norm() > Scalar(0.99)) e *= Scalar(0.99) / e.norm();
-  StepReport<Scalar> rep = newton(GBResidual<Scheme, Scene>(d), e, opt);
+  Vector3 e0 = Theta0 * (sinc(theta0 / 2) / 2);
+  if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
+  const Vector3 base = (h / Scalar(2)) * in.omega;
+  Vector3 z = e0 - base;  // Newton's unknown (see GBResidual)
+  StepReport<Scalar> rep = newton(GBResidual<Scheme, Scene>(d), z, opt, e0.norm());
   if (!rep.ok()) return rep;
+  const Vector3 e = base + z;
   // Branch rule: the increment angle Δφ = 2 asin|e| and its distance to Θ⁰.
   const Scalar s = e.norm();
   const Scalar dphi = Scalar(2) * std::asin(s);
@@ -161,7 +168,7 @@ StepReport<typename Scene::Scalar> gb_step(const Scene& scene, const State<typen
   using std::sqrt;
   const Eigen::Quaternion<Scalar> q(sqrt(Scalar(1) - e.squaredNorm()), e.x(), e.y(), e.z());  // F²
   out.rotation = in.rotation * SO3<Scalar>::renormalized(q);
-  out.omega = Scalar(4) * e / h - in.omega;                                              // (38)
+  out.omega = in.omega + Scalar(4) * z / h;                    // Ω_{n+1} = 4e/h − Ω_n (38)
   out.time = in.time + h;
   if (!all_finite(out.omega) || !all_finite(out.rotation.unit_quaternion().coeffs()))
     rep.status = StepStatus::non_finite;

@@ -186,7 +186,7 @@ StepReport<typename Scene::Scalar> simo_step(const Scheme& scheme, const Scene& 
   // Newton's unknown is y = Θ − hΩ_n (see SimoResidual).
   const Vector3 base = h * in.omega;
   Vector3 y = Theta0 - base;
-  StepReport<Scalar> rep = newton(SimoResidual<Scheme, Scene>(scheme, d), y, opt);
+  StepReport<Scalar> rep = newton(SimoResidual<Scheme, Scene>(scheme, d), y, opt, Theta0.norm());
   if (!rep.ok()) return rep;
   const Vector3 Theta = base + y;
   // Branch rule (NewtonOptions): |Θ| < max_increment, ‖Θ − Θ⁰‖ ≤ max_correction.

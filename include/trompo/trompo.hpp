@@ -2,6 +2,7 @@
 // trompo: structure-preserving integrators for nonlinear rigid-body rotation.
 // The umbrella header; each part is usable on its own.
 #include "trompo/body.hpp"
+#include "trompo/cases.hpp"
 #include "trompo/effects/uniform_gravity.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/newton.hpp"

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The whole test suite, from a clean clone on Debian 12 (README quick start, and .ci/run).
+#   1. install missing Debian packages
+#   2. build everything (tests, examples, bench) in Release with warnings as errors; run ctest
+#   3. rebuild the tests with AddressSanitizer + UndefinedBehaviorSanitizer; run ctest
+#   4. a bounded libFuzzer run of the step contract (clang)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc)
+
+scripts/deps.sh clang libclang-rt-14-dev
+
+echo "== build (Release, -Werror)"
+cmake -S . -B build/test -DCMAKE_BUILD_TYPE=Release -DTROMPO_WARNINGS_AS_ERRORS=ON >/dev/null
+cmake --build build/test -j"$jobs"
+echo "== ctest"
+ctest --test-dir build/test --output-on-failure -j"$jobs"
+
+if [ -f scripts/sanitize.sh ]; then
+  echo "== sanitizers"
+  scripts/sanitize.sh
+fi
+if [ -f scripts/fuzz.sh ]; then
+  echo "== fuzz"
+  scripts/fuzz.sh
+fi

@@ -1,0 +1,252 @@
+// trompo-simulate: the command-line face of the library.
+//
+//   trompo-simulate --case ht1 --scheme simo-kappa --dt 0.001 --t-end 10 --every 100
+//
+// Writes one CSV row per output step:
+//   t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations
+// Exit status: 0 done; 2 invalid input (one line on stderr, no rows written);
+// 3 a step failed (rows up to the last good state written, stderr names t and why).
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "trompo/trompo.hpp"
+
+namespace {
+
+using trompo::invalid_input;
+using V3 = Eigen::Vector3d;
+using M3 = Eigen::Matrix3d;
+
+constexpr const char* kUsage =
+    "usage: trompo-simulate [options]\n"
+    "  --case ht0|ht1|ht2|fb1|fb2   preset from THEORY 7-8 (other flags override it)\n"
+    "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4\n"
+    "  --alpha A                    simo-alpha only (default 0.5)\n"
+    "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
+    "  --mgl W                      M*g*l (0 = no gravity)\n"
+    "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
+    "  --up G1,G2,G3                spatial up (normalised)\n"
+    "  --rotation R1,R2,R3          initial rotation vector, Lambda0 = exp(R^)\n"
+    "  --omega W1,W2,W3             initial body angular velocity\n"
+    "  --dt H  --t-end T  [--every K]   write every K-th step (default 1); the last step is always written\n"
+    "  --csv FILE                   default: standard output\n";
+
+struct Config {
+  std::string scheme = "simo-kappa";
+  std::optional<double> alpha;
+  M3 inertia = M3::Zero();
+  bool have_inertia = false;
+  double mgl = 0;
+  V3 com = V3::UnitZ();
+  V3 up = V3::UnitZ();
+  V3 rotation = V3::Zero();
+  V3 omega = V3::Zero();
+  std::optional<double> dt;
+  std::optional<double> t_end;
+  long every = 1;
+  std::string csv;
+};
+
+double parse_number(const std::string& flag, const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+    throw invalid_input(flag + ": not a number: '" + text + "'");
+  if (!std::isfinite(v)) throw invalid_input(flag + ": must be finite, got " + text);
+  return v;
+}
+
+std::vector<double> parse_list(const std::string& flag, const std::string& text) {
+  std::vector<double> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    out.push_back(parse_number(flag, text.substr(start, comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+V3 parse_vector(const std::string& flag, const std::string& text) {
+  const auto v = parse_list(flag, text);
+  if (v.size() != 3) throw invalid_input(flag + ": expected 3 comma-separated numbers, got '" + text + "'");
+  return V3(v[0], v[1], v[2]);
+}
+
+/// Presets (THEORY 7-8). dt defaults: the finest h the theory names for the case.
+void apply_case(const std::string& name, Config& c) {
+  auto from = [&](const auto& preset, double dt) {
+    c.inertia = preset.scene.body().inertia();
+    c.have_inertia = true;
+    c.omega = preset.initial.omega;
+    c.rotation = preset.initial.rotation.log();
+    c.t_end = preset.t_end;
+    c.dt = dt;
+    if constexpr (!std::decay_t<decltype(preset.scene)>::is_free) {
+      const auto& g = preset.scene.template effect<trompo::UniformGravity<double>>();
+      c.mgl = g.Mgl();
+      c.com = g.com_direction();
+      c.up = g.up();
+    } else {
+      c.mgl = 0;
+    }
+  };
+  if (name == "ht0") from(trompo::cases::ht0<double>(), 0.001);
+  else if (name == "ht1") from(trompo::cases::ht1<double>(), 0.001);
+  else if (name == "ht2") from(trompo::cases::ht2<double>(), 0.0005);
+  else if (name == "fb1") from(trompo::cases::fb1<double>(), 0.01);
+  else if (name == "fb2") from(trompo::cases::fb2<double>(), 0.1);
+  else throw invalid_input("--case: unknown case '" + name + "' (ht0, ht1, ht2, fb1, fb2)");
+}
+
+Config parse(int argc, char** argv) {
+  std::map<std::string, std::string> flags;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      std::exit(0);
+    }
+    if (a.rfind("--", 0) != 0) throw invalid_input("unexpected argument '" + a + "'");
+    if (i + 1 >= argc) throw invalid_input(a + ": missing value");
+    if (flags.count(a)) throw invalid_input(a + ": given twice");
+    flags[a] = argv[++i];
+  }
+  Config c;
+  // The preset first; every other flag overrides it.
+  if (auto it = flags.find("--case"); it != flags.end()) apply_case(it->second, c);
+  for (const auto& [flag, value] : flags) {
+    if (flag == "--case") continue;
+    else if (flag == "--scheme") c.scheme = value;
+    else if (flag == "--alpha") c.alpha = parse_number(flag, value);
+    else if (flag == "--inertia") {
+      const auto v = parse_list(flag, value);
+      if (v.size() != 3 && v.size() != 6)
+        throw invalid_input("--inertia: expected J11,J22,J33 or J11,J22,J33,J12,J13,J23, got '" + value + "'");
+      c.inertia = M3::Zero();
+      c.inertia.diagonal() << v[0], v[1], v[2];
+      if (v.size() == 6) {
+        c.inertia(0, 1) = c.inertia(1, 0) = v[3];
+        c.inertia(0, 2) = c.inertia(2, 0) = v[4];
+        c.inertia(1, 2) = c.inertia(2, 1) = v[5];
+      }
+      c.have_inertia = true;
+    } else if (flag == "--mgl") c.mgl = parse_number(flag, value);
+    else if (flag == "--com") c.com = parse_vector(flag, value);
+    else if (flag == "--up") c.up = parse_vector(flag, value);
+    else if (flag == "--rotation") c.rotation = parse_vector(flag, value);
+    else if (flag == "--omega") c.omega = parse_vector(flag, value);
+    else if (flag == "--dt") c.dt = parse_number(flag, value);
+    else if (flag == "--t-end") c.t_end = parse_number(flag, value);
+    else if (flag == "--every") {
+      const double k = parse_number(flag, value);
+      if (!(k >= 1) || k != std::floor(k) || k > 1e15) throw invalid_input("--every: must be a positive integer, got " + value);
+      c.every = static_cast<long>(k);
+    } else if (flag == "--csv") c.csv = value;
+    else throw invalid_input("unknown option '" + flag + "' (see --help)");
+  }
+  if (!c.have_inertia) throw invalid_input("--inertia: required (or give --case)");
+  if (!c.dt) throw invalid_input("--dt: required (or give --case)");
+  if (!c.t_end) throw invalid_input("--t-end: required (or give --case)");
+  if (*c.dt == 0) throw invalid_input("--dt: must be non-zero, got 0");
+  if (*c.t_end != 0 && (*c.t_end > 0) != (*c.dt > 0))
+    throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
+                        std::to_string(*c.dt));
+  if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  return c;
+}
+
+/// Writes the CSV rows; `Stepper` is any trompo stepper over `Scene`.
+template <class StepperT>
+int run(const StepperT& stepper, const Config& c, trompo::State<double> s, std::FILE* out) {
+  const auto& scene = stepper.scene();
+  const V3 up = c.up.normalized();  // μ = γ·π about the given up axis, with or without gravity
+  auto row = [&](const trompo::State<double>& st, int iterations) {
+    const M3 R = st.rotation.matrix();
+    const V3 pi = scene.spatial_momentum(st);
+    std::fprintf(out, "%.17g", st.time);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) std::fprintf(out, ",%.17g", R(i, j));
+    std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", st.omega.x(), st.omega.y(),
+                 st.omega.z(), scene.energy(st), up.dot(pi), pi.x(), pi.y(), pi.z(), iterations);
+  };
+  std::fputs("t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations\n", out);
+  row(s, 0);
+  const double h = *c.dt;
+  const double t_end = *c.t_end;
+  // n steps of h; the last one shortened (or lengthened by < h·1e-9) to land on t_end.
+  const double ratio = t_end / h;
+  const long n = static_cast<long>(std::ceil(ratio - 1e-9));
+  for (long k = 1; k <= n; ++k) {
+    const double step = (k == n) ? t_end - s.time : h;
+    const auto rep = stepper.step(s, step);
+    if (!rep.ok()) {
+      std::fflush(out);
+      std::fprintf(stderr, "trompo-simulate: step failed at t = %.17g (h = %.17g): %s\n", s.time, step,
+                   rep.reason());
+      return 3;
+    }
+    // Times on the exact grid t0 + k·h, not a running sum that gathers round-off.
+    s.time = (k == n) ? t_end : static_cast<double>(k) * h;
+    if (k % c.every == 0 || k == n) row(s, rep.iterations);
+  }
+  return 0;
+}
+
+template <class Scene>
+int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<double>& s0, std::FILE* out) {
+  using namespace trompo;
+  if (c.scheme == "simo-alpha")
+    return run(Stepper<SimoAlpha, Scene>(SimoAlpha(c.alpha.value_or(0.5)), scene), c, s0, out);
+  if (c.scheme == "simo-collocation") return run(Stepper<SimoCollocation, Scene>({}, scene), c, s0, out);
+  if (c.scheme == "simo-kappa") return run(Stepper<SimoKappa, Scene>({}, scene), c, s0, out);
+  if (c.scheme == "geradin-bauchau") return run(Stepper<GeradinBauchau, Scene>({}, scene), c, s0, out);
+  if (c.scheme == "geradin-bauchau-paper") return run(Stepper<GeradinBauchauPaper, Scene>({}, scene), c, s0, out);
+  if (c.scheme == "rk4") return run(Stepper<RK4, Scene>({}, scene), c, s0, out);
+  throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace trompo;
+  Config c;
+  State<double> s0;
+  std::FILE* out = stdout;
+  try {
+    c = parse(argc, argv);
+    const RigidBody<double> body(c.inertia);
+    s0.rotation = SO3d::exp(c.rotation);
+    s0.omega = c.omega;
+    s0.validate();
+    // Validate the scheme name and the gravity parameters before writing anything.
+    static const char* const schemes[] = {"simo-alpha", "simo-collocation", "simo-kappa",
+                                          "geradin-bauchau", "geradin-bauchau-paper", "rk4"};
+    bool known = false;
+    for (const char* name : schemes) known = known || c.scheme == name;
+    if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+    const UniformGravity<double> gravity(c.mgl, c.com, c.up);
+    if (!c.csv.empty()) {
+      out = std::fopen(c.csv.c_str(), "w");
+      if (!out) throw invalid_input("--csv: cannot open '" + c.csv + "': " + std::strerror(errno));
+    }
+    int code = 0;
+    // No gravity named: the free-body scene, whose step computes no torque at all.
+    if (c.mgl == 0) code = dispatch_scheme(c, FreeScene<double>(body), s0, out);
+    else code = dispatch_scheme(c, HeavyTop<double>(body, gravity), s0, out);
+    if (out != stdout) std::fclose(out);
+    return code;
+  } catch (const invalid_input& e) {
+    std::fprintf(stderr, "trompo-simulate: %s\n", e.what());
+    return 2;
+  }
+}

@@ -162,6 +162,7 @@ Config parse(int argc, char** argv) {
     throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
                         std::to_string(*c.dt));
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
   return c;
 }
 

@@ -33,7 +33,9 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
     dq = qd.coeffs() / Scalar(2);
     Vector3 rhs = scene.momentum(w).cross(w);
     if constexpr (Scene::has_potential || Scene::has_applied_torque)
-      rhs += scene.body_torque(q.toRotationMatrix(), w, t);  // unnormalised q: Λ(q) is still a rotation
+      // The stage quaternions drift off |q| = 1, and Eigen's toRotationMatrix() of a
+      // non-unit q is not a rotation: normalise before taking Λ(q).
+      rhs += scene.body_torque(q.normalized().toRotationMatrix(), w, t);
     dw = Jinv * rhs;
   };
   const Vector4 q0 = in.rotation.unit_quaternion().coeffs();
@@ -53,7 +55,9 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
     rep.status = StepStatus::non_finite;
     return rep;
   }
-  out.rotation = SO3<Scalar>::renormalized(Quaternion(q1));
+  // Scale by the largest component first: after a wild step |q1|² can overflow while q1
+  // is finite, and normalising by an infinite norm would give the zero quaternion.
+  out.rotation = SO3<Scalar>::renormalized(Quaternion(Vector4(q1 / q1.cwiseAbs().maxCoeff())));
   return rep;
 }
 

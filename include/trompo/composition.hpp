@@ -1,0 +1,161 @@
+#pragma once
+// ComposedStepper<Scheme, Scene>: order 4 or 6 from a symmetric second-order scheme by
+// symmetric composition (THEORY §6).
+//
+//   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, scene, 4);
+//   StepReport<double> rep = stepper.step(state, h);   // three sub-steps γ_i h
+//
+// One composed step of size h is the product of base steps of sizes γ_1 h, …, γ_s h with
+// Σγ_i = 1 and γ_i = γ_{s+1−i}. If the base step Φ_h is symmetric (Φ_{−h} = Φ_h⁻¹) and of
+// order 2, the composition is symmetric and of order 4 (triple jump) or 6 (Kahan–Li).
+// Every sub-step is a step of the base scheme, so whatever it conserves exactly (H and μ
+// for Simo-κ, collocation and Géradin–Bauchau; μ for Simo-α ½; π for the free body) the
+// composition conserves too. Negative γ_i are steps backward in time, which the base
+// schemes support.
+//
+// Only symmetric bases may be composed to order 4/6: RK4 is rejected at compile time,
+// Simo-α with α ≠ ½ (order 1, not symmetric) at construction. Order 2 is the base scheme
+// itself, one step, whatever the scheme.
+//
+// The order proof also needs the base step to be a smooth function of h. Simo collocation
+// with the closed-form α of [T2] is not, on fast tops: α is the root nearest ½, and where
+// f″(½) changes sign (every nutation turn of HT0/HT1) the two roots ½ ± 1/√12 swap and α
+// jumps. Each such step adds an O(h³) error that the weights do not cancel, so composed
+// collocation is of order ≈ 3 there (orders 4 and 6 where f″ keeps its sign, e.g. a
+// swinging body). H and μ stay exact either way. See tests/test_composition.cpp.
+#include <array>
+#include <cmath>
+#include <type_traits>
+#include <utility>
+
+#include "trompo/errors.hpp"
+#include "trompo/newton.hpp"
+#include "trompo/schemes/geradin_bauchau.hpp"
+#include "trompo/schemes/rk4.hpp"
+#include "trompo/schemes/simo.hpp"
+#include "trompo/state.hpp"
+#include "trompo/stepper.hpp"
+
+namespace trompo {
+
+/// The weights γ_1 … γ_s of a symmetric composition of order 2, 4 or 6.
+template <class Scalar>
+struct CompositionCoefficients {
+  static constexpr int max_stages = 9;
+  int order = 2;
+  int stages = 1;
+  std::array<Scalar, max_stages> gamma{};
+
+  /// Throws invalid_input unless order is 2, 4 or 6.
+  static CompositionCoefficients of_order(int order) {
+    CompositionCoefficients c;
+    c.order = order;
+    switch (order) {
+      case 2:
+        c.stages = 1;
+        c.gamma[0] = Scalar(1);
+        break;
+      case 4: {
+        // Triple jump (Creutz & Gocksch 1989, Forest 1989, Suzuki 1990, Yoshida 1990;
+        // Hairer–Lubich–Wanner, Geometric Numerical Integration, 2nd ed., §II.4 (4.4)):
+        //   γ1 = γ3 = 1/(2 − 2^{1/3}),  γ2 = −2^{1/3}/(2 − 2^{1/3}).
+        // Written out in long double (rounded once to Scalar) rather than computed, so that
+        // every Scalar gets the correctly rounded value.
+        c.stages = 3;
+        c.gamma[0] = c.gamma[2] = Scalar(1.35120719195965763404768780897146083L);
+        c.gamma[1] = Scalar(-1.70241438391931526809537561794292165L);
+        break;
+      }
+      case 6:
+        // Kahan & Li, "Composition constants for raising the orders of unconventional
+        // schemes for ordinary differential equations", Math. Comp. 66 (1997) 1089–1099:
+        // the s = 9 order-6 set, as printed in Hairer–Lubich–Wanner, Geometric Numerical
+        // Integration, 2nd ed., §V.3.2, eq. (3.11). Its error constant is much smaller
+        // than that of Yoshida's s = 7 set (ibid. (3.10)).
+        c.stages = 9;
+        c.gamma[0] = c.gamma[8] = Scalar(0.39216144400731413927925056L);
+        c.gamma[1] = c.gamma[7] = Scalar(0.33259913678935943859974864L);
+        c.gamma[2] = c.gamma[6] = Scalar(-0.70624617255763935980996482L);
+        c.gamma[3] = c.gamma[5] = Scalar(0.08221359629355080023149045L);
+        c.gamma[4] = Scalar(0.79854399093482996339895035L);
+        break;
+      default:
+        detail::fail("composition: order must be 2, 4 or 6, got ", order);
+    }
+    return c;
+  }
+};
+
+/// Whether a scheme type is symmetric for every value of its parameters. RK4 never is;
+/// SimoAlpha is only for α = ½, which is checked at run time.
+template <class Scheme>
+inline constexpr bool is_symmetric_scheme_type = !std::is_same_v<Scheme, RK4>;
+
+template <class Scheme, class Scene_>
+class ComposedStepper {
+  static_assert(is_symmetric_scheme_type<Scheme>,
+                "ComposedStepper: RK4 is not symmetric, so composing it does not raise its order; "
+                "use Stepper<RK4, Scene> (order 4) instead");
+
+ public:
+  using Scene = Scene_;
+  using Scalar = typename Scene::Scalar;
+  using Base = Stepper<Scheme, Scene>;
+
+  /// `order` is 2 (the base scheme, one step), 4 (triple jump, 3 sub-steps) or 6
+  /// (Kahan–Li, 9 sub-steps); anything else throws invalid_input, as does order 4/6 on a
+  /// non-symmetric base (Simo-α with α ≠ ½).
+  ComposedStepper(Scheme scheme, Scene scene, int order, NewtonOptions<Scalar> options = {})
+      : base_(std::move(scheme), std::move(scene), options),
+        coefficients_(CompositionCoefficients<Scalar>::of_order(order)) {
+    if (order > 2 && !base_.symmetric())
+      detail::fail("composition: order ", order, " needs a symmetric base scheme; ", Scheme::name,
+                   " with these parameters is not symmetric (Simo-alpha needs alpha = 0.5)");
+  }
+
+  /// Advances `state` by h through the sub-steps γ_i h. Same contract as Stepper::step:
+  /// on failure of any sub-step, `state` is untouched and the report carries that
+  /// sub-step's status. `iterations` is the sum over the sub-steps taken, `residual` the
+  /// largest sub-step residual.
+  StepReport<Scalar> step(State<Scalar>& state, Scalar h) const {
+    if (coefficients_.stages == 1) return base_.step(state, h);
+    StepReport<Scalar> total;
+    if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
+      total.status = StepStatus::invalid_step;
+      return total;
+    }
+    State<Scalar> s = state;
+    for (int i = 0; i < coefficients_.stages; ++i) {
+      const StepReport<Scalar> rep = base_.step(s, coefficients_.gamma[static_cast<std::size_t>(i)] * h);
+      total.iterations += rep.iterations;
+      if (rep.residual > total.residual) total.residual = rep.residual;
+      if (!rep.ok()) {
+        total.status = rep.status;
+        return total;
+      }
+    }
+    // Σγ_i h differs from h by round-off; end the step exactly at t_n + h, as Stepper does.
+    s.time = state.time + h;
+    state = s;
+    return total;
+  }
+
+  int order() const { return coefficients_.order; }
+  /// Base steps per composed step (1, 3 or 9): the cost factor over the base scheme.
+  int stages() const { return coefficients_.stages; }
+  const CompositionCoefficients<Scalar>& coefficients() const { return coefficients_; }
+  /// A composition of a symmetric scheme by symmetric weights is symmetric.
+  bool symmetric() const { return base_.symmetric(); }
+
+  const Base& base() const { return base_; }
+  const Scheme& scheme() const { return base_.scheme(); }
+  const Scene& scene() const { return base_.scene(); }
+  const NewtonOptions<Scalar>& options() const { return base_.options(); }
+  NewtonOptions<Scalar>& options() { return base_.options(); }
+
+ private:
+  Base base_;
+  CompositionCoefficients<Scalar> coefficients_;
+};
+
+}  // namespace trompo

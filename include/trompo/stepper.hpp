@@ -7,6 +7,8 @@
 // A step that fails (Newton did not converge, left the domain, took a wrong branch,
 // produced a NaN, or h is 0/non-finite) returns its status and leaves `state` exactly
 // as it was. No heap allocation, no virtual call: everything is fixed-size Eigen.
+#include <cmath>
+#include <limits>
 #include <type_traits>
 
 #include "trompo/newton.hpp"
@@ -41,6 +43,10 @@ class Stepper {
     } else {
       rep = detail::simo_step(scheme_, scene_, state, h, options_, next);
     }
+    // Last line of defence for "no NaN behind ok": whatever a scheme returned, an ok step
+    // must give a finite state with a unit quaternion (the fuzzer found RK4 overflowing
+    // |q|² to a zero quaternion), else it is reported as non_finite and not committed.
+    if (rep.ok() && !committable(next)) rep.status = StepStatus::non_finite;
     if (rep.ok()) state = next;
     return rep;
   }
@@ -58,6 +64,14 @@ class Stepper {
   NewtonOptions<Scalar>& options() { return options_; }
 
  private:
+  static bool committable(const State<Scalar>& s) {
+    using std::abs;
+    const auto& q = s.rotation.unit_quaternion();
+    return detail::all_finite(s.omega) && detail::all_finite(q.coeffs()) &&
+           std::isfinite(static_cast<double>(s.time)) &&
+           abs(q.squaredNorm() - Scalar(1)) <= Scalar(16) * std::numeric_limits<Scalar>::epsilon();
+  }
+
   Scheme scheme_;
   Scene scene_;
   NewtonOptions<Scalar> options_;

@@ -1,0 +1,191 @@
+// No heap allocation in a step (nor in integrate without an observer), proven two ways:
+//  - every global operator new/delete of this executable is replaced by a counting one;
+//  - Eigen's own heap (aligned_malloc, which bypasses operator new) is watched with
+//    EIGEN_RUNTIME_NO_MALLOC, whose check goes through eigen_assert, defined here so that
+//    it records a violation in Release builds too (where the plain assert is compiled out).
+// Covered: every scheme on the free body, the heavy top, and scenes with every effect
+// (damping, body and space torques, rotor, a general potential); composed steppers;
+// failing steps; integrate() with sub-stepping recovery.
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+namespace no_alloc {
+/// Violations of EIGEN_RUNTIME_NO_MALLOC (or of any other Eigen assertion) in this file.
+inline std::atomic<long> eigen_violations{0};
+inline void eigen_violation(const char* /*what*/) { ++eigen_violations; }
+/// operator new calls while `counting` is set.
+inline std::atomic<long> news{0};
+inline std::atomic<bool> counting{false};
+}  // namespace no_alloc
+
+#define EIGEN_RUNTIME_NO_MALLOC
+#define eigen_assert(x)                                 \
+  do {                                                  \
+    if (!static_cast<bool>(x)) no_alloc::eigen_violation(#x); \
+  } while (false)
+
+#include <catch2/catch.hpp>
+
+#include "trompo/trompo.hpp"
+
+// ---- the counting global allocation functions ---------------------------------------------
+namespace {
+void* counted(std::size_t n) {
+  if (no_alloc::counting.load(std::memory_order_relaxed)) ++no_alloc::news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* counted_aligned(std::size_t n, std::align_val_t a) {
+  if (no_alloc::counting.load(std::memory_order_relaxed)) ++no_alloc::news;
+  const std::size_t al = static_cast<std::size_t>(a);
+  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+
+void* operator new(std::size_t n) { return counted(n); }
+void* operator new[](std::size_t n) { return counted(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  try {
+    return counted(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
+  try {
+    return counted(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new(std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
+void* operator new[](std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+using namespace trompo;
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+
+namespace {
+
+/// Runs f with allocation watched; returns the number of operator new calls plus Eigen
+/// heap allocations attempted inside.
+template <class F>
+long allocations_in(F&& f) {
+  const long eigen_before = no_alloc::eigen_violations.load();
+  no_alloc::news = 0;
+  Eigen::internal::set_is_malloc_allowed(false);
+  no_alloc::counting = true;
+  f();
+  no_alloc::counting = false;
+  Eigen::internal::set_is_malloc_allowed(true);
+  return no_alloc::news.load() + (no_alloc::eigen_violations.load() - eigen_before);
+}
+
+template <class St>
+void no_allocation_in_steps(const St& st, State<double> s, double h, int n = 50) {
+  int ok = 0, failed = 0;
+  const long count = allocations_in([&] {
+    for (int i = 0; i < n; ++i) (st.step(s, h).ok() ? ok : failed)++;
+  });
+  INFO(ok << " steps ok, " << failed << " failed");
+  CHECK(count == 0);
+  CHECK(ok + failed == n);
+}
+
+template <class Scheme>
+void all_scenes(const Scheme& scheme) {
+  const State<double> start = [] {
+    State<double> s;
+    s.rotation = SO3d::exp(Vec3(0.3, -0.2, 0.1));
+    s.omega = Vec3(0.5, -1.0, 3.0);
+    return s;
+  }();
+  const RigidBody<double> body(Vec3(1, 2, 2.5));
+  const UniformGravity<double> gravity(5.0, Vec3(0.1, 0.2, 1.0));
+  SECTION("free body") { no_allocation_in_steps(Stepper<Scheme, Scene<double>>(scheme, Scene<double>(body)), start, 0.01); }
+  SECTION("heavy top") {
+    no_allocation_in_steps(Stepper<Scheme, HeavyTop<double>>(scheme, HeavyTop<double>(body, gravity)), start, 0.01);
+  }
+  SECTION("gravity, damping, body and space torques, rotor") {
+    using S = Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
+                    ConstantSpaceTorque<double>, Rotor<double>>;
+    const S scene(body, gravity, ViscousDamping<double>(0.1), ConstantBodyTorque<double>(Vec3(0.1, 0, 0)),
+                  ConstantSpaceTorque<double>(Vec3(0, 0.1, 0)), Rotor<double>(Vec3(0, 0, 0.5)));
+    no_allocation_in_steps(Stepper<Scheme, S>(scheme, scene), start, 0.01);
+  }
+  SECTION("a time-dependent torque given by a lambda") {
+    auto f = [](double t) { return Vec3(std::sin(t), 0, 0); };
+    using S = Scene<double, BodyTorque<double, decltype(f)>>;
+    no_allocation_in_steps(Stepper<Scheme, S>(scheme, S(body, body_torque<double>(f))), start, 0.01);
+  }
+  if constexpr (!std::is_same_v<Scheme, GeradinBauchauPaper>) {
+    SECTION("a general potential (Hessian by central differences)") {
+      const Vec3 E(0, 0, 1), up(0, 0, 1);
+      auto V = [=](const Mat3& L) {
+        const double c = up.dot(L * E);
+        return 2.0 * c * c;
+      };
+      auto g = [=](const Mat3& L) -> Vec3 { return 4.0 * up.dot(L * E) * E.cross(L.transpose() * up); };
+      const auto pot = make_potential<double>(V, g);
+      using S = Scene<double, std::decay_t<decltype(pot)>>;
+      no_allocation_in_steps(Stepper<Scheme, S>(scheme, S(body, pot)), start, 0.01);
+    }
+  }
+  SECTION("failing steps (h far too large) allocate nothing either") {
+    no_allocation_in_steps(Stepper<Scheme, HeavyTop<double>>(scheme, HeavyTop<double>(body, gravity)), start, 2.0, 5);
+  }
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("no heap allocation in a step", "[no_alloc]", SimoAlpha, SimoCollocation, SimoKappa,
+                   GeradinBauchau, GeradinBauchauPaper, RK4) {
+  all_scenes(TestType{});
+}
+
+TEST_CASE("the allocation counter works (a control)", "[no_alloc]") {
+  CHECK(allocations_in([] { delete new int(3); }) == 1);
+  CHECK(allocations_in([] {
+          Eigen::MatrixXd m(4, 4);
+          m.setZero();
+        }) >= 1);
+}
+
+TEST_CASE("no heap allocation in composed steppers", "[no_alloc]") {
+  const auto c = cases::ht1<double>();
+  const ComposedStepper<SimoKappa, cases::Top<double>> st4(SimoKappa{}, c.scene, 4);
+  const ComposedStepper<GeradinBauchau, cases::Top<double>> st6(GeradinBauchau{}, c.scene, 6);
+  no_allocation_in_steps(st4, c.initial, 0.001);
+  no_allocation_in_steps(st6, c.initial, 0.001);
+}
+
+TEST_CASE("no heap allocation in integrate without an observer, recovery included", "[no_alloc]") {
+  const auto c = cases::ht0<double>();
+  const Stepper<SimoKappa, cases::Top<double>> st(SimoKappa{}, c.scene);
+  const Stepper<GeradinBauchau, cases::Top<double>> gb(GeradinBauchau{}, c.scene);
+  State<double> s = c.initial, t = c.initial;
+  IntegrationSummary<double> a, b;
+  CHECK(allocations_in([&] { a = integrate(st, s, 1.0, 0.1); }) == 0);  // every interval recovered
+  CHECK(allocations_in([&] { b = integrate(gb, t, 1.0, 0.05); }) == 0);
+  CHECK(a.ok());
+  CHECK(a.recovered == 10);
+  CHECK(b.ok());
+  CHECK(b.recovered == 20);
+  // An observer that does not allocate keeps it so.
+  double max_H = 0;
+  State<double> u = c.initial;
+  CHECK(allocations_in([&] {
+          integrate(st, u, 1.0, 0.01, [&](const State<double>& x) { max_H = std::max(max_H, c.scene.energy(x)); });
+        }) == 0);
+  CHECK(max_H > 0);
+}

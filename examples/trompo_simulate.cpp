@@ -16,6 +16,14 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+#include <limits>
+#include <type_traits>
+
+#if TROMPO_HAVE_EXACT
+#include "trompo/exact/free_body.hpp"
+#include "trompo/exact/lagrange_top.hpp"
+#endif
 #include "trompo/trompo.hpp"
 
 namespace {
@@ -27,8 +35,9 @@ using M3 = Eigen::Matrix3d;
 constexpr const char* kUsage =
     "usage: trompo-simulate [options]\n"
     "  --case ht0|ht1|ht2|fb1|fb2   preset from THEORY 7-8 (other flags override it)\n"
-    "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4\n"
+    "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact\n"
     "  --alpha A                    simo-alpha only (default 0.5)\n"
+    "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself)\n"
     "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
     "  --mgl W                      M*g*l (0 = no gravity)\n"
     "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
@@ -36,7 +45,11 @@ constexpr const char* kUsage =
     "  --rotation R1,R2,R3          initial rotation vector, Lambda0 = exp(R^)\n"
     "  --omega W1,W2,W3             initial body angular velocity\n"
     "  --dt H  --t-end T  [--every K]   write every K-th step (default 1); the last step is always written\n"
-    "  --csv FILE                   default: standard output\n";
+    "  --csv FILE                   default: standard output\n"
+    "  --damping C                  viscous damping torque -C*Omega\n"
+    "  --torque T1,T2,T3            constant body-fixed torque\n"
+    "  --space-torque S1,S2,S3      constant space-fixed torque\n"
+    "  --rotor H1,H2,H3             internal rotor angular momentum (body axes)\n";
 
 struct Config {
   std::string scheme = "simo-kappa";
@@ -53,6 +66,12 @@ struct Config {
   std::optional<double> t_end;
   long every = 1;
   std::string csv;
+  int order = 2;
+  double damping = 0;
+  V3 body_torque = V3::Zero();
+  V3 space_torque = V3::Zero();
+  V3 rotor = V3::Zero();
+  bool have_effects = false;  // any of --damping, --torque, --space-torque, --rotor
 };
 
 double parse_number(const std::string& flag, const std::string& text) {
@@ -155,6 +174,23 @@ Config parse(int argc, char** argv) {
       if (!(k >= 1) || k != std::floor(k) || k > 1e15) throw invalid_input("--every: must be a positive integer, got " + value);
       c.every = static_cast<long>(k);
     } else if (flag == "--csv") c.csv = value;
+    else if (flag == "--order") {
+      const double k = parse_number(flag, value);
+      if (k != 2 && k != 4 && k != 6) throw invalid_input("--order: must be 2, 4 or 6, got " + value);
+      c.order = static_cast<int>(k);
+    } else if (flag == "--damping") {
+      c.damping = parse_number(flag, value);
+      c.have_effects = true;
+    } else if (flag == "--torque") {
+      c.body_torque = parse_vector(flag, value);
+      c.have_effects = true;
+    } else if (flag == "--space-torque") {
+      c.space_torque = parse_vector(flag, value);
+      c.have_effects = true;
+    } else if (flag == "--rotor") {
+      c.rotor = parse_vector(flag, value);
+      c.have_effects = true;
+    }
     else throw invalid_input("unknown option '" + flag + "' (see --help)");
   }
   if (!c.have_inertia) throw invalid_input("--inertia: required (or give --case)");
@@ -165,57 +201,137 @@ Config parse(int argc, char** argv) {
     throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
                         std::to_string(*c.dt));
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  if (c.order != 2 && (c.scheme == "rk4" || c.scheme == "exact"))
+    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " + c.scheme);
+  if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
+    throw invalid_input("--order: simo-alpha is symmetric only for alpha = 0.5");
   if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
   return c;
 }
 
-/// Writes the CSV rows; `Stepper` is any trompo stepper over `Scene`.
+/// Counts the Newton iterations of the steps since the last written row (a recovered
+/// interval counts all its sub-steps); forwards to the wrapped stepper.
+template <class StepperT>
+struct CountingStepper {
+  using Scalar = double;
+  const StepperT& stepper;
+  mutable long iterations = 0;
+  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
+    const auto rep = stepper.step(s, h);
+    iterations += rep.iterations;
+    return rep;
+  }
+};
+
+const char* const kHeader = "t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations\n";
+
+/// One CSV row of state s (`%.17g`).
+template <class Scene>
+void write_row(std::FILE* out, const Scene& scene, const V3& up, const trompo::State<double>& st, long iterations) {
+  const M3 R = st.rotation.matrix();
+  const V3 pi = scene.spatial_momentum(st);
+  std::fprintf(out, "%.17g", st.time);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) std::fprintf(out, ",%.17g", R(i, j));
+  std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%ld\n", st.omega.x(), st.omega.y(),
+               st.omega.z(), scene.energy(st), up.dot(pi), pi.x(), pi.y(), pi.z(), iterations);
+}
+
+/// The number of steps of the grid t0 + k·h to t_end (the last one shortened): as integrate().
+long step_count(const Config& c) {
+  const double ratio = *c.t_end / *c.dt;
+  const double eps = std::numeric_limits<double>::epsilon();
+  return std::max(1L, static_cast<long>(std::ceil(ratio - 8 * eps * std::max(ratio, 1.0))));
+}
+
+/// Runs `stepper` through trompo::integrate (failed steps are retried as sub-steps) and
+/// writes the CSV rows.
 template <class StepperT>
 int run(const StepperT& stepper, const Config& c, trompo::State<double> s, std::FILE* out) {
   const auto& scene = stepper.scene();
   const V3 up = c.up.normalized();  // μ = γ·π about the given up axis, with or without gravity
-  auto row = [&](const trompo::State<double>& st, int iterations) {
-    const M3 R = st.rotation.matrix();
-    const V3 pi = scene.spatial_momentum(st);
-    std::fprintf(out, "%.17g", st.time);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) std::fprintf(out, ",%.17g", R(i, j));
-    std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n", st.omega.x(), st.omega.y(),
-                 st.omega.z(), scene.energy(st), up.dot(pi), pi.x(), pi.y(), pi.z(), iterations);
-  };
-  std::fputs("t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations\n", out);
-  row(s, 0);
-  const double h = *c.dt;
-  const double t_end = *c.t_end;
-  // n steps of h; the last one shortened (or lengthened by < h·1e-9) to land on t_end.
-  const double ratio = t_end / h;
-  const long n = static_cast<long>(std::ceil(ratio - 1e-9));
-  for (long k = 1; k <= n; ++k) {
-    const double step = (k == n) ? t_end - s.time : h;
-    const auto rep = stepper.step(s, step);
-    if (!rep.ok()) {
-      std::fflush(out);
-      std::fprintf(stderr, "trompo-simulate: step failed at t = %.17g (h = %.17g): %s\n", s.time, step,
-                   rep.reason());
-      return 3;
+  std::fputs(kHeader, out);
+  const long n = step_count(c);
+  const CountingStepper<StepperT> counting{stepper};
+  long k = -1;  // the observer's first call is at t0
+  auto observer = [&](const trompo::State<double>& st) {
+    ++k;
+    if (k == 0 || k % c.every == 0 || k == n) {
+      write_row(out, scene, up, st, counting.iterations);
+      counting.iterations = 0;
     }
-    // Times on the exact grid t0 + k·h, not a running sum that gathers round-off.
-    s.time = (k == n) ? t_end : static_cast<double>(k) * h;
-    if (k % c.every == 0 || k == n) row(s, rep.iterations);
+  };
+  const auto sum = trompo::integrate(counting, s, *c.t_end, *c.dt, observer);
+  if (sum.recovered > 0)
+    std::fprintf(stderr, "trompo-simulate: %lld interval(s) recovered by sub-stepping (%lld failed attempts, %lld sub-steps, depth <= %d)\n",
+                 static_cast<long long>(sum.recovered), static_cast<long long>(sum.failures),
+                 static_cast<long long>(sum.substeps), sum.max_depth);
+  if (!sum.ok()) {
+    std::fflush(out);
+    std::fprintf(stderr, "trompo-simulate: step failed at t = %.17g (h = %.17g), not recovered by sub-stepping: %s\n",
+                 s.time, *c.dt, sum.reason());
+    return 3;
   }
   return 0;
+}
+
+/// The closed form (THEORY §8) on the same grid: the Lagrange top (J diagonal with
+/// J11 = J22, centre of mass on body axis 3) or the torque-free body (J diagonal).
+int run_exact(const Config& c, const trompo::RigidBody<double>& body, const trompo::State<double>& s0, std::FILE* out) {
+  using namespace trompo;
+#if !TROMPO_HAVE_EXACT
+  (void)body, (void)s0, (void)out;
+  throw invalid_input("--scheme exact: this build has no closed forms (Boost.Math headers were not found)");
+#else
+  const M3& J = body.inertia();
+  const double scale = J.cwiseAbs().maxCoeff();
+  if (c.have_effects) throw invalid_input("--scheme exact: no closed form with damping, torques or a rotor");
+  if (!body.is_diagonal()) throw invalid_input("--scheme exact: no closed form for a non-diagonal inertia (give principal axes)");
+  const M3 L0 = s0.rotation.matrix();
+  auto emit = [&](const auto& exact, const auto& scene) {
+    std::fputs(kHeader, out);
+    const long n = step_count(c);
+    for (long k = 0; k <= n; ++k) {
+      State<double> s;
+      s.time = (k == n) ? *c.t_end : static_cast<double>(k) * *c.dt;
+      if (!(k == 0 || k % c.every == 0 || k == n)) continue;
+      s.rotation = SO3d::renormalized(Eigen::Quaterniond(exact.rotation(s.time)));
+      s.omega = exact.omega(s.time);
+      write_row(out, scene, c.up.normalized(), s, 0);
+    }
+    return 0;
+  };
+  if (c.mgl == 0) return emit(exact::FreeBody(J.diagonal(), L0, s0.omega), FreeScene<double>(body));
+  if (std::abs(J(0, 0) - J(1, 1)) > 1e-12 * scale)
+    throw invalid_input("--scheme exact: no closed form for this top (needs J11 = J22, a Lagrange top)");
+  const V3 E = c.com.normalized();
+  if ((E - V3::UnitZ()).norm() > 1e-14)
+    throw invalid_input("--scheme exact: no closed form for this top (needs --com along the symmetry axis 0,0,1)");
+  const HeavyTop<double> scene(body, UniformGravity<double>(c.mgl, c.com, c.up));
+  return emit(exact::LagrangeTop(J(0, 0), J(2, 2), c.mgl, L0, s0.omega, c.up.normalized()), scene);
+#endif
+}
+
+/// The scheme, plain or composed (--order 4 or 6).
+template <class Scheme, class Scene>
+int run_scheme(const Config& c, Scheme scheme, const Scene& scene, const trompo::State<double>& s0, std::FILE* out) {
+  if constexpr (std::is_same_v<Scheme, trompo::RK4>) {
+    return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
+  } else {
+    if (c.order == 2) return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
+    return run(trompo::ComposedStepper<Scheme, Scene>(scheme, scene, c.order), c, s0, out);
+  }
 }
 
 template <class Scene>
 int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<double>& s0, std::FILE* out) {
   using namespace trompo;
-  if (c.scheme == "simo-alpha")
-    return run(Stepper<SimoAlpha, Scene>(SimoAlpha(c.alpha.value_or(0.5)), scene), c, s0, out);
-  if (c.scheme == "simo-collocation") return run(Stepper<SimoCollocation, Scene>({}, scene), c, s0, out);
-  if (c.scheme == "simo-kappa") return run(Stepper<SimoKappa, Scene>({}, scene), c, s0, out);
-  if (c.scheme == "geradin-bauchau") return run(Stepper<GeradinBauchau, Scene>({}, scene), c, s0, out);
-  if (c.scheme == "geradin-bauchau-paper") return run(Stepper<GeradinBauchauPaper, Scene>({}, scene), c, s0, out);
-  if (c.scheme == "rk4") return run(Stepper<RK4, Scene>({}, scene), c, s0, out);
+  if (c.scheme == "simo-alpha") return run_scheme(c, SimoAlpha(c.alpha.value_or(0.5)), scene, s0, out);
+  if (c.scheme == "simo-collocation") return run_scheme(c, SimoCollocation{}, scene, s0, out);
+  if (c.scheme == "simo-kappa") return run_scheme(c, SimoKappa{}, scene, s0, out);
+  if (c.scheme == "geradin-bauchau") return run_scheme(c, GeradinBauchau{}, scene, s0, out);
+  if (c.scheme == "geradin-bauchau-paper") return run_scheme(c, GeradinBauchauPaper{}, scene, s0, out);
+  if (c.scheme == "rk4") return run_scheme(c, RK4{}, scene, s0, out);
   throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
 }
 
@@ -234,19 +350,42 @@ int main(int argc, char** argv) {
     s0.omega = c.omega;
     s0.validate();
     // Validate the scheme name and the gravity parameters before writing anything.
-    static const char* const schemes[] = {"simo-alpha", "simo-collocation", "simo-kappa",
-                                          "geradin-bauchau", "geradin-bauchau-paper", "rk4"};
+    static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
+                                          "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact"};
     bool known = false;
     for (const char* name : schemes) known = known || c.scheme == name;
     if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
     const UniformGravity<double> gravity(c.mgl, c.com, c.up);
+    // Effects are validated here too, before any row is written.
+    const ViscousDamping<double> damping(c.damping);
+    const ConstantBodyTorque<double> body_torque(c.body_torque);
+    const ConstantSpaceTorque<double> space_torque(c.space_torque);
+    const Rotor<double> rotor(c.rotor);
+    if (c.scheme == "exact" && c.have_effects)
+      throw invalid_input("--scheme exact: no closed form with damping, torques or a rotor");
+    if (c.scheme == "exact" && !body.is_diagonal())
+      throw invalid_input("--scheme exact: no closed form for a non-diagonal inertia (give principal axes)");
+    if (c.scheme == "exact" && c.mgl != 0 &&
+        (std::abs(c.inertia(0, 0) - c.inertia(1, 1)) > 1e-12 * c.inertia.cwiseAbs().maxCoeff() ||
+         (c.com.normalized() - V3::UnitZ()).norm() > 1e-14))
+      throw invalid_input("--scheme exact: no closed form for this top (needs J11 = J22 and --com 0,0,1: a Lagrange top)");
     if (!c.csv.empty()) {
       out = std::fopen(c.csv.c_str(), "w");
       if (!out) throw invalid_input("--csv: cannot open '" + c.csv + "': " + std::strerror(errno));
     }
     int code = 0;
-    // No gravity named: the free-body scene, whose step computes no torque at all.
-    if (c.mgl == 0) code = dispatch_scheme(c, FreeScene<double>(body), s0, out);
+    // Scenes: the library compiles in exactly the effects a scene names. The CLI keeps
+    // three: the free body (no torque computed at all), the heavy top, and, when any of
+    // --damping/--torque/--space-torque/--rotor is given, a scene with all of them (those
+    // not given are zero) to keep the number of compiled variants small.
+    if (c.scheme == "exact") code = run_exact(c, body, s0, out);
+    else if (c.have_effects)
+      code = dispatch_scheme(c,
+                             Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
+                                   ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, damping, body_torque,
+                                                                               space_torque, rotor),
+                             s0, out);
+    else if (c.mgl == 0) code = dispatch_scheme(c, FreeScene<double>(body), s0, out);
     else code = dispatch_scheme(c, HeavyTop<double>(body, gravity), s0, out);
     if (out != stdout) std::fclose(out);
     return code;

@@ -25,16 +25,43 @@ check "--csv writes a file; last step always written" '[ $rc -eq 0 ] && [ "$(tai
 
 for bad in "--case ht1 --inertia 1,1,5" "--case ht1 --dt 0" "--case ht1 --dt nan" "--case ht1 --omega 1,inf,0" \
            "--case ht1 --scheme euler" "--case ht1 --alpha 0.3" "--case ht1 --t-end -1" "--inertia 1,2,3 --dt 0.1" \
-           "--case ht1 --com 0,0,0" "--case ht9" "--case ht1 --scheme simo-alpha --alpha 1.5" "--case ht1 --inertia 1,2,3,5,0,0"; do
+           "--case ht1 --com 0,0,0" "--case ht9" "--case ht1 --scheme simo-alpha --alpha 1.5" "--case ht1 --inertia 1,2,3,5,0,0" \
+           "--case ht2 --scheme exact" "--case ht1 --scheme exact --damping 1" "--case ht1 --order 3" "--case ht1 --scheme rk4 --order 4" \
+           "--case ht1 --damping nan" "--case ht1 --rotor 1,2" "--case ht1 --scheme simo-alpha --alpha 0.3 --order 4"; do
   "$sim" $bad >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
   check "exit 2, no rows, one-line reason: $bad" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ]'
 done
 
-# A step that cannot succeed: HT0 at h = 0.2 (|Θ| ≈ 10 rad).
-"$sim" --case ht0 --dt 0.2 --t-end 1 >"$tmp/fail.csv" 2>"$tmp/fail.err"; rc=$?
+# A step that sub-stepping cannot save: |Θ| = 1e6 rad even at h/1024.
+"$sim" --case fb1 --omega 0,1e6,0 --dt 1 --t-end 2 >"$tmp/fail.csv" 2>"$tmp/fail.err"; rc=$?
 check "exit 3 on a failed step" '[ $rc -eq 3 ]'
-check "rows up to the last good state" '[ "$(head -1 "$tmp/fail.csv")" = "$header" ] && [ $(wc -l <"$tmp/fail.csv") -ge 2 ]'
-check "stderr names t" 'grep -q "t = " "$tmp/fail.err"'
+check "rows up to the last good state (t = 0)" '[ "$(head -1 "$tmp/fail.csv")" = "$header" ] && [ $(wc -l <"$tmp/fail.csv") -eq 2 ]'
+check "stderr names t and the reason" 'grep -q "t = 0 .*wrong branch" "$tmp/fail.err"'
+
+# HT0 at h = 0.2 (|Θ| ≈ 10 rad a step): recovered by sub-stepping, said on stderr.
+"$sim" --case ht0 --dt 0.2 --t-end 1 --scheme simo-kappa >"$tmp/sub.csv" 2>"$tmp/sub.err"; rc=$?
+check "sub-stepping recovers HT0 at h = 0.2" '[ $rc -eq 0 ] && [ $(wc -l <"$tmp/sub.csv") -eq 7 ]'
+check "sub-stepping reported on stderr" 'grep -q "recovered by sub-stepping" "$tmp/sub.err"'
+check "H exact through recovered steps" 'awk -F, "NR==2{h=\$14} NR>2{d=(\$14-h)/h; if(d<0)d=-d; if(d>1e-12) bad=1} END{exit bad}" "$tmp/sub.csv"'
+
+# --scheme exact: the closed forms against the independent references at the final time.
+"$sim" --case ht1 --scheme exact --every 100000 >"$tmp/exact.csv"; rc=$?
+check "exact HT1 R00(10) = -0.88035320824679323 (reference)" '[ $rc -eq 0 ] && awk -F, "END{d=\$2+0.88035320824679323; if(d<0)d=-d; exit !(d<1e-12)}" "$tmp/exact.csv"'
+"$sim" --case fb1 --scheme exact --every 100000 >"$tmp/exact.csv"; rc=$?
+check "exact FB1 W2(100) = -1.9999933436136818 (reference)" '[ $rc -eq 0 ] && awk -F, "END{d=\$12+1.9999933436136818; if(d<0)d=-d; exit !(d<1e-11)}" "$tmp/exact.csv"'
+check "exact rows have 0 iterations" 'awk -F, "NR>1 && \$19 != 0 {bad=1} END{exit bad}" "$tmp/exact.csv"'
+
+# --order 4: closer to the closed form than order 2 at the same h.
+"$sim" --case ht1 --scheme simo-kappa --dt 0.01 --every 100000 >"$tmp/o2.csv"
+"$sim" --case ht1 --scheme simo-kappa --order 4 --dt 0.01 --every 100000 >"$tmp/o4.csv"
+check "order 4 beats order 2 against the exact R00(10)" 'awk -F, -v a="$(tail -1 "$tmp/o2.csv" | cut -d, -f2)" -v b="$(tail -1 "$tmp/o4.csv" | cut -d, -f2)" "BEGIN{x=a+0.88035320824679323; y=b+0.88035320824679323; if(x<0)x=-x; if(y<0)y=-y; exit !(y < x/100)}"'
+
+# Effects: damping loses energy at every row; a rotor enters pi but not H.
+"$sim" --case ht1 --damping 1 --t-end 1 --every 100 >"$tmp/damp.csv"; rc=$?
+check "damping: H decreases monotonically" '[ $rc -eq 0 ] && awk -F, "NR>2 && \$14 >= prev {bad=1} NR>1{prev=\$14} END{exit bad}" "$tmp/damp.csv"'
+"$sim" --case fb1 --rotor 0,0,0.5 --t-end 10 --every 100 >"$tmp/rotor.csv"; rc=$?
+check "rotor: H and pi3 exact (free body with rotor)" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; p=\$18} NR>2{d=(\$14-h)/h; e=\$18-p; if(d<0)d=-d; if(e<0)e=-e; if(d>1e-12||e>1e-12) bad=1} END{exit bad}" "$tmp/rotor.csv"'
+check "rotor: pi includes h_r at t = 0 (pi3 = 3*0.01 + 0.5)" 'awk -F, "NR==2{d=\$18-0.53; if(d<0)d=-d; exit !(d<1e-15)}" "$tmp/rotor.csv"'
 
 # Backward integration.
 "$sim" --case ht1 --dt -0.001 --t-end -0.01 >"$tmp/back.csv"; rc=$?

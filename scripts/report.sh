@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What accuracy costs: the README's main-job command (docs/accuracy_cost.md).
+# What accuracy costs: the README's main-job command (README "What accuracy costs").
 #   1. install missing Debian packages (python3-matplotlib for the plots)
 #   2. build trompo-bench in Release (build/report)
 #   3. run it: per-step costs and the Δt sweep (JSON), then the long-run energy series (CSV)
@@ -34,6 +34,6 @@ echo "== report"
 /usr/bin/python3 scripts/report.py "$out"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
   cp "$out"/{work_precision,frontier,energy_vs_h,energy_over_time,newton_vs_h}.png docs/img/
-  echo "   plots copied to docs/img/ (update the numbers in docs/accuracy_cost.md from $out/report.md)"
+  echo "   plots copied to docs/img/ (update the numbers in README "What accuracy costs" from $out/report.md)"
 fi
 echo "== done in $(($(date +%s) - start)) s (after the build): $out/report.md"

@@ -1,5 +1,5 @@
 // Scenes and effects (THEORY §1, §3, §5): one test per row of the invariants table in
-// docs/scenes_and_effects.md, run for every scheme; the effects' Jacobians and every
+// README "Scenes and effects", run for every scheme; the effects' Jacobians and every
 // scheme's tangent against central differences.
 //
 // Each row prints its measured figure per scheme as

@@ -181,8 +181,8 @@ TEST_CASE("each failure status leaves the state bit-for-bit unchanged", "[robust
   const auto ht1 = cases::ht1<double>();
   using Top = cases::Top<double>;
   SECTION("GB: an increment at or beyond pi is out of the domain") {
-    // HT1 at h = 0.05: |Θ| ≈ 2.5 rad is a half-increment sin(Δφ/2) that fits, but the
-    // solve leaves |e| < 1 (the predictor is capped at 0.99).
+    // HT1 at h = 0.05: |hΩ| ≈ 2.5 rad; the predictor e⁰ (capped at |e| = 0.99) is valid,
+    // but the Newton iterates leave the domain |e| < 1.
     expect_failure_leaves_state(Stepper<GeradinBauchau, Top>(GeradinBauchau{}, ht1.scene), ht1.initial, 0.05,
                                 StepStatus::out_of_domain);
     expect_failure_leaves_state(Stepper<GeradinBauchauPaper, Top>(GeradinBauchauPaper{}, ht1.scene), ht1.initial,

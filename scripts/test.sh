@@ -2,8 +2,9 @@
 # The whole test suite, from a clean clone on Debian 12 (README quick start, and .ci/run).
 #   1. install missing Debian packages
 #   2. build everything (tests, examples, bench) in Release with warnings as errors; run ctest
-#   3. rebuild the tests with AddressSanitizer + UndefinedBehaviorSanitizer; run ctest
-#   4. a bounded libFuzzer run of the step contract (clang)
+#   3. a bounded libFuzzer run of the step contract (clang)
+#   4. rebuild the tests with AddressSanitizer + UndefinedBehaviorSanitizer; run ctest
+#      (last, so that the run closes on ctest's summary line)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
@@ -16,11 +17,7 @@ cmake --build build/test -j"$jobs"
 echo "== ctest"
 ctest --test-dir build/test --output-on-failure -j"$jobs"
 
-if [ -f scripts/sanitize.sh ]; then
-  echo "== sanitizers"
-  scripts/sanitize.sh
-fi
-if [ -f scripts/fuzz.sh ]; then
-  echo "== fuzz"
-  scripts/fuzz.sh
-fi
+echo "== fuzz"
+scripts/fuzz.sh
+echo "== sanitizers"
+scripts/sanitize.sh

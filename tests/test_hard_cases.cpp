@@ -16,6 +16,7 @@
 #include <limits>
 #include <type_traits>
 
+#include "support/same_bits.hpp"
 #include "trompo/trompo.hpp"
 
 using namespace trompo;
@@ -34,13 +35,7 @@ template <class Scheme>
 constexpr bool exact_momentum = std::is_same_v<Scheme, SimoKappa> || std::is_same_v<Scheme, SimoCollocation> ||
                                 std::is_same_v<Scheme, GeradinBauchau> || std::is_same_v<Scheme, SimoAlpha>;
 
-template <class Scalar>
-bool same_bits(const State<Scalar>& a, const State<Scalar>& b) {
-  return std::memcmp(a.omega.data(), b.omega.data(), sizeof(Scalar) * 3) == 0 &&
-         std::memcmp(a.rotation.unit_quaternion().coeffs().data(), b.rotation.unit_quaternion().coeffs().data(),
-                     sizeof(Scalar) * 4) == 0 &&
-         std::memcmp(&a.time, &b.time, sizeof(Scalar)) == 0;
-}
+using trompo_test::same_bits;
 
 template <class Scalar>
 bool finite(const State<Scalar>& s) {

@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "support/same_bits.hpp"
 #include "trompo/trompo.hpp"
 
 using namespace trompo;
@@ -37,14 +38,7 @@ std::string message_of(F&& f) {
   return {};
 }
 
-/// Bit-for-bit equality of two states (NaN-safe, -0 ≠ +0).
-template <class Scalar>
-bool same_bits(const State<Scalar>& a, const State<Scalar>& b) {
-  return std::memcmp(a.omega.data(), b.omega.data(), sizeof(Scalar) * 3) == 0 &&
-         std::memcmp(a.rotation.unit_quaternion().coeffs().data(), b.rotation.unit_quaternion().coeffs().data(),
-                     sizeof(Scalar) * 4) == 0 &&
-         std::memcmp(&a.time, &b.time, sizeof(Scalar)) == 0;
-}
+using trompo_test::same_bits;
 
 template <class Scene>
 double rel_energy_error(const Scene& scene, const State<double>& s, double H0) {

@@ -152,8 +152,10 @@ namespace {
 
 /// Steps `st` from `s` with h until `want` is returned (at most `tries` steps); checks
 /// that the failed step left the state bit-for-bit unchanged.
+/// `also` is a second acceptable status (StepStatus::ok: none).
 template <class St>
-void expect_failure_leaves_state(const St& st, State<double> s, double h, StepStatus want, int tries = 400) {
+void expect_failure_leaves_state(const St& st, State<double> s, double h, StepStatus want, int tries = 400,
+                                 StepStatus also = StepStatus::ok) {
   for (int i = 0; i < tries; ++i) {
     const State<double> before = s;
     const StepReport<double> rep = st.step(s, h);
@@ -161,7 +163,8 @@ void expect_failure_leaves_state(const St& st, State<double> s, double h, StepSt
       REQUIRE(s.omega.allFinite());
       continue;
     }
-    CHECK(rep.status == want);
+    INFO("status: " << rep.reason());
+    CHECK((rep.status == want || (also != StepStatus::ok && rep.status == also)));
     CHECK(same_bits(s, before));
     return;
   }
@@ -191,12 +194,21 @@ TEST_CASE("each failure status leaves the state bit-for-bit unchanged", "[robust
     expect_failure_leaves_state(Stepper<SimoCollocation, Top>(SimoCollocation{}, ht0.scene), ht0.initial, 0.1,
                                 StepStatus::wrong_branch);
   }
-  SECTION("Simo: the fold of the implicit equation makes the tangent singular") {
+  SECTION("Simo: past the fold of the implicit equation Newton fails") {
     // HT0 at h = 0.05 (|Θ| ≈ 2.5 rad): 2J/h no longer dominates the gyroscopic term.
+    // With plain Newton the iterates wander until the tangent is singular; with the
+    // simplified Newton (the default) they may instead exhaust the iteration cap,
+    // depending on round-off (the wandering is chaotic). Either is a reported failure.
+    NewtonOptions<double> plain;
+    plain.reuse_tangent = 0;
+    expect_failure_leaves_state(Stepper<SimoKappa, Top>(SimoKappa{}, ht0.scene, plain), ht0.initial, 0.05,
+                                StepStatus::singular_tangent);
+    expect_failure_leaves_state(Stepper<SimoAlpha, Top>(SimoAlpha{}, ht0.scene, plain), ht0.initial, 0.05,
+                                StepStatus::singular_tangent);
     expect_failure_leaves_state(Stepper<SimoKappa, Top>(SimoKappa{}, ht0.scene), ht0.initial, 0.05,
-                                StepStatus::singular_tangent);
+                                StepStatus::singular_tangent, 400, StepStatus::not_converged);
     expect_failure_leaves_state(Stepper<SimoAlpha, Top>(SimoAlpha{}, ht0.scene), ht0.initial, 0.05,
-                                StepStatus::singular_tangent);
+                                StepStatus::singular_tangent, 400, StepStatus::not_converged);
   }
   SECTION("an iteration cap that is too small: not converged") {
     NewtonOptions<double> opt;

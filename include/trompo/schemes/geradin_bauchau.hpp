@@ -49,8 +49,8 @@ struct HalfRotation {
   Matrix3 F;
   Matrix3 G;
 
-  /// False when |e| ≥ 1 (no half rotation below π).
-  bool set(const Vector3& e) {
+  /// False when |e| ≥ 1 (no half rotation below π). G only if `with_jacobian`.
+  bool set(const Vector3& e, bool with_jacobian = true) {
     using std::asin;
     using std::sqrt;
     const Scalar s2 = e.squaredNorm();
@@ -58,6 +58,7 @@ struct HalfRotation {
     e0 = sqrt(Scalar(1) - s2);
     const Matrix3 E = SO3<Scalar>::hat(e);
     F = e0 * Matrix3::Identity() + e * e.transpose() / (Scalar(1) + e0) + E;  // (40)
+    if (!with_jacobian) return e0 > Scalar(0);
     const Scalar beta = asin(sqrt(s2));
     const Scalar sc = sinc(beta);                              // |e| / β
     const Scalar q = Scalar(-4) * kappa_prime_over_theta(Scalar(2) * beta);
@@ -81,19 +82,19 @@ class GBResidual {
   /// [T4] or [T5] at e = hΩ_n/2 + z. Newton's unknown is z, the departure from the
   /// rigid rotation, so that Ω_{n+1} = 4e/h − Ω_n = Ω_n + 4z/h is a small correction
   /// (see SimoResidual: cancelling two large numbers biases the round-off).
-  bool operator()(const Vector3& z, Vector3& R, Matrix3& K, Scalar& scale) const {
+  /// With K null only R and scale (bit-identical to a full evaluation; detail::newton).
+  bool operator()(const Vector3& z, Vector3& R, Matrix3* K, Scalar& scale) const {
     const Scene& scene = d_.scene;
     const Scalar h = d_.h;
     const Vector3 e = (h / Scalar(2)) * d_.omega_n + z;
     const Matrix3& J = scene.body().inertia();
     HalfRotation<Scalar> half;
-    if (!half.set(e)) return false;
+    if (!half.set(e, K != nullptr)) return false;
     const Matrix3& F = half.F;
 
     if constexpr (!paper) {
       const Vector3 omega_next = d_.omega_n + Scalar(4) * z / h;  // Ω_{n+1} = 4e/h − Ω_n
       const Vector3 Pi_next = scene.momentum(omega_next);
-      const Vector3 FtPi_n = F.transpose() * d_.Pi_n;
       // [T4] momentum part F Π_{n+1} − Fᵀ Π_n, expanded with (40) so that no rounded
       // entry of F multiplies the large Π itself (see SimoResidual):
       //   e0 ΔΠ + e (e·ΔΠ)/(1+e0) + e × (Π_{n+1} + Π_n),   ΔΠ = Π_{n+1} − Π_n = (4/h) J z.
@@ -101,7 +102,10 @@ class GBResidual {
       const Vector3 dPi = scene.body().momentum(Scalar(4) * z / h);
       R = half.e0 * dPi + e * (e.dot(dPi) / (Scalar(1) + half.e0)) + e.cross(Pi_next + d_.Pi_n);
       // d(FΠ₁) = (4/h) F J δe − F Π̂₁ G δe;  d(FᵀΠ_n) = (FᵀΠ_n)^ G δe
-      K = (Scalar(4) / h) * F * J - (F * G::hat(Pi_next) + G::hat(FtPi_n)) * half.G;
+      if (K) {
+        const Vector3 FtPi_n = F.transpose() * d_.Pi_n;
+        *K = (Scalar(4) / h) * F * J - (F * G::hat(Pi_next) + G::hat(FtPi_n)) * half.G;
+      }
       scale = d_.Pi_n.norm() + Pi_next.norm();
     } else {
       const Vector3 Je = J * e;
@@ -109,7 +113,7 @@ class GBResidual {
       if constexpr (Scene::has_rotor) gyro += (h / Scalar(2)) * scene.rotor_momentum();
       const Vector3 JOmega_n = scene.body().momentum(d_.omega_n);
       R = Je - (h / Scalar(2)) * JOmega_n + e.cross(gyro);                // [T5] · h²/8
-      K = J + G::hat(e) * J - G::hat(gyro);
+      if (K) *K = J + G::hat(e) * J - G::hat(gyro);
       scale = Je.norm() + std::abs(h) / Scalar(2) * JOmega_n.norm() + e.norm() * gyro.norm();
     }
 
@@ -120,23 +124,28 @@ class GBResidual {
       Matrix3 d_omega = Matrix3::Zero();
       if constexpr (Scene::has_potential) {
         Matrix3 Jc;
-        tau += scene.conservative_torque(d_.caches, F, &Jc);
-        d_rot += Jc;
+        tau += scene.conservative_torque(d_.caches, F, K ? &Jc : nullptr);
+        if (K) d_rot += Jc;
       }
       if constexpr (Scene::has_applied_torque) {
         Matrix3 Jr, Jw;
-        tau += scene.applied_torque(d_.caches, F, Scalar(2) * e / h, &Jr, &Jw);  // Ω_m = 2e/h
-        d_rot += Jr;
-        d_omega += Jw;
+        tau += scene.applied_torque(d_.caches, F, Scalar(2) * e / h, K ? &Jr : nullptr,
+                                    K ? &Jw : nullptr);  // Ω_m = 2e/h
+        if (K) {
+          d_rot += Jr;
+          d_omega += Jw;
+        }
       }
       const Vector3 tau_m = F.transpose() * tau;
       const Scalar w = paper ? h * h / Scalar(4) : h;                    // weight in [T5] / [T4]
       R -= w * tau_m;
-      K -= w * ((G::hat(tau_m) + F.transpose() * d_rot) * half.G + F.transpose() * d_omega * (Scalar(2) / h));
+      if (K) *K -= w * ((G::hat(tau_m) + F.transpose() * d_rot) * half.G + F.transpose() * d_omega * (Scalar(2) / h));
       scale += std::abs(w) * tau_m.norm();
     }
     return true;
   }
+  /// Residual and tangent (the full evaluation).
+  bool operator()(const Vector3& z, Vector3& R, Matrix3& K, Scalar& scale) const { return (*this)(z, R, &K, scale); }
 
  private:
   const StepData<Scene>& d_;

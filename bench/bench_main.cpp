@@ -18,10 +18,11 @@
 //                                  evaluations, explicit methods).
 //                                A configuration whose step fails is reported as an error.
 //
-// Every benchmark's label is "key=value;…" (case, method, scheme, order, h, tol) for
-// scripts/report.py. Methods: simo-alpha (½), simo-collocation, simo-kappa,
+// Every benchmark's label is "key=value;…" (case, method, scheme, order, h, tol, stages)
+// for scripts/report.py. Methods: simo-alpha (½), simo-collocation, simo-kappa,
 // geradin-bauchau, geradin-bauchau-paper, each at order 2; the three energy-exact ones
-// composed to order 4 and 6 (ComposedStepper); our RK4; and, when Boost is found,
+// composed (ComposedStepper) to order 4 by the triple jump (-o4) and by Suzuki's five
+// steps (-o4s), and to order 6 by Kahan–Li (-o6); our RK4; and, when Boost is found,
 // odeint's runge_kutta4 and runge_kutta_dopri5 on the quaternion ODE.
 //
 // References at the end time: the closed-form Lagrange top (HT0, HT1) and free body
@@ -168,7 +169,7 @@ struct Problem {
   cases::Case<SceneT> c;
   Reference ref;
   double h_step;  ///< representative h for the per-step family
-  Grid o2, o4, o6, rk4;
+  Grid o2, o4, o6, rk4, o4s;
 };
 
 std::deque<Problem<Top>> tops;    // stable addresses for the registered lambdas
@@ -304,16 +305,24 @@ bool report(benchmark::State& st, const Problem<SceneT>& p, const RunResult& r, 
 }
 
 std::string label_of(const std::string& case_name, const std::string& method, const std::string& scheme, int order,
-                     double h, double tol = 0) {
+                     double h, double tol = 0, int stages = 1) {
   std::ostringstream os;
   os << std::setprecision(10) << "case=" << case_name << ";method=" << method << ";scheme=" << scheme
-     << ";order=" << order << ";h=" << h << ";tol=" << tol;
+     << ";order=" << order << ";h=" << h << ";tol=" << tol << ";stages=" << stages;
   return os.str();
 }
 
-std::string method_name(const char* scheme, int order) {
-  return order == 2 ? std::string(scheme) : std::string(scheme) + "-o" + std::to_string(order);
+/// scheme, scheme-o4 (triple jump), scheme-o4s (Suzuki's five steps), scheme-o6 (Kahan–Li).
+std::string method_name(const char* scheme, Composition method) {
+  switch (method) {
+    case Composition::base: return scheme;
+    case Composition::triple_jump: return std::string(scheme) + "-o4";
+    case Composition::suzuki5: return std::string(scheme) + "-o4s";
+    case Composition::kahan_li9: return std::string(scheme) + "-o6";
+  }
+  return scheme;
 }
+std::string method_name(const char* scheme, int order) { return method_name(scheme, composition_of_order(order)); }
 
 std::string h_text(double h) {
   std::ostringstream os;
@@ -326,16 +335,17 @@ constexpr double sweep_min_time = 0.05;
 // ---- sweep family ----------------------------------------------------------------------------
 
 template <class Scheme, class SceneT>
-void register_sweep(const Problem<SceneT>& p, Scheme scheme, int order, const Grid& g) {
-  const std::string method = method_name(Scheme::name, order);
+void register_sweep(const Problem<SceneT>& p, Scheme scheme, Composition composition, const Grid& g) {
+  const std::string method = method_name(Scheme::name, composition);
   for (double h : grid(g, p.c.t_end)) {
     const std::string name = "sweep/" + std::string(p.c.name) + "/" + method + "/h:" + h_text(h);
-    benchmark::RegisterBenchmark(name.c_str(), [&p, scheme, order, h, method](benchmark::State& st) {
-      const ComposedStepper<Scheme, SceneT> stepper(scheme, p.c.scene, order);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, scheme, composition, h, method](benchmark::State& st) {
+      const ComposedStepper<Scheme, SceneT> stepper(scheme, p.c.scene, composition);
       const long n = std::lround(p.c.t_end / h);
       // The instrumented run first: a configuration that fails is reported, not timed.
       const RunResult r = run_trompo<true>(stepper, p.c, h, n);
-      if (!report(st, p, r, h, label_of(p.c.name, method, Scheme::name, order, h))) return;
+      if (!report(st, p, r, h, label_of(p.c.name, method, Scheme::name, stepper.order(), h, 0, stepper.stages())))
+        return;
       for (auto _ : st) {
         RunResult timed = run_trompo<false>(stepper, p.c, h, n);
         benchmark::DoNotOptimize(timed.end);
@@ -392,16 +402,16 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
 
 template <class SceneT>
 void register_sweeps(const Problem<SceneT>& p) {
-  register_sweep(p, SimoAlpha{}, 2, p.o2);
-  register_sweep(p, GeradinBauchauPaper{}, 2, p.o2);
-  register_sweep(p, SimoKappa{}, 2, p.o2);
-  register_sweep(p, SimoCollocation{}, 2, p.o2);
-  register_sweep(p, GeradinBauchau{}, 2, p.o2);
-  for (int order : {4, 6}) {
-    const Grid& g = order == 4 ? p.o4 : p.o6;
-    register_sweep(p, SimoKappa{}, order, g);
-    register_sweep(p, SimoCollocation{}, order, g);
-    register_sweep(p, GeradinBauchau{}, order, g);
+  register_sweep(p, SimoAlpha{}, Composition::base, p.o2);
+  register_sweep(p, GeradinBauchauPaper{}, Composition::base, p.o2);
+  register_sweep(p, SimoKappa{}, Composition::base, p.o2);
+  register_sweep(p, SimoCollocation{}, Composition::base, p.o2);
+  register_sweep(p, GeradinBauchau{}, Composition::base, p.o2);
+  for (Composition m : {Composition::triple_jump, Composition::suzuki5, Composition::kahan_li9}) {
+    const Grid& g = m == Composition::triple_jump ? p.o4 : m == Composition::suzuki5 ? p.o4s : p.o6;
+    register_sweep(p, SimoKappa{}, m, g);
+    register_sweep(p, SimoCollocation{}, m, g);
+    register_sweep(p, GeradinBauchau{}, m, g);
   }
   register_sweep_rk4(p);
 }
@@ -426,15 +436,15 @@ void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<Scen
 constexpr double step_min_time = 0.25;
 constexpr int step_repetitions = 3;
 
-template <class Scheme, class SceneT>
-void register_step(const Problem<SceneT>& p, Scheme scheme, int order) {
+template <class Scheme, class SceneT, class Method>
+void register_step(const Problem<SceneT>& p, Scheme scheme, Method order) {
   const std::string method = method_name(Scheme::name, order);
   const std::string name = "step/" + std::string(p.c.name) + "/" + method;
   benchmark::RegisterBenchmark(name.c_str(), [&p, scheme, order, method](benchmark::State& st) {
     const ComposedStepper<Scheme, SceneT> stepper(scheme, p.c.scene, order);
     step_loop(st, stepper, p);
     st.counters["substeps"] = stepper.stages();
-    st.SetLabel(label_of(p.c.name, method, Scheme::name, order, p.h_step));
+    st.SetLabel(label_of(p.c.name, method, Scheme::name, stepper.order(), p.h_step, 0, stepper.stages()));
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
 }
 
@@ -476,10 +486,10 @@ void register_steps(const Problem<SceneT>& p) {
   register_step(p, SimoCollocation{}, 2);
   register_step(p, GeradinBauchau{}, 2);
   register_step(p, GeradinBauchauPaper{}, 2);
-  for (int order : {4, 6}) {
-    register_step(p, SimoKappa{}, order);
-    register_step(p, SimoCollocation{}, order);
-    register_step(p, GeradinBauchau{}, order);
+  for (Composition m : {Composition::triple_jump, Composition::suzuki5, Composition::kahan_li9}) {
+    register_step(p, SimoKappa{}, m);
+    register_step(p, SimoCollocation{}, m);
+    register_step(p, GeradinBauchau{}, m);
   }
 }
 
@@ -616,11 +626,11 @@ int main(int argc, char** argv) {
   // The cases and their step-size grids (h ranges chosen so that every method spans from
   // its largest workable step down to errors near 1e-10 or round-off, within the time
   // budget of scripts/report.sh).
-  //                                       h_step  order 2        order 4         order 6       RK4 (ours, odeint)
-  tops.push_back({cases::ht0<double>(), {}, 1e-3, {1e-2, 5e-5}, {1e-2, 1e-4}, {2e-2, 5e-4}, {1e-2, 2e-5}});
-  tops.push_back({cases::ht1<double>(), {}, 1e-3, {1e-2, 5e-5}, {1e-2, 1e-4}, {2e-2, 5e-4}, {1e-2, 2e-5}});
-  tops.push_back({cases::ht2<double>(), {}, 1e-3, {2e-3, 1e-5}, {2e-3, 2.5e-5}, {4e-3, 1e-4}, {2e-3, 1e-5}});
-  frees.push_back({cases::fb1<double>(), {}, 1e-2, {1e-1, 4e-4}, {2e-1, 1e-3}, {4e-1, 4e-3}, {1e-1, 2e-4}});
+  //                                       h_step  order 2        order 4 (3 st.)  order 6       RK4 (ours, odeint) order 4 (Suzuki)
+  tops.push_back({cases::ht0<double>(), {}, 1e-3, {1e-2, 5e-5}, {1e-2, 1e-4}, {2e-2, 5e-4}, {1e-2, 2e-5}, {2e-2, 2e-4}});
+  tops.push_back({cases::ht1<double>(), {}, 1e-3, {1e-2, 5e-5}, {1e-2, 1e-4}, {2e-2, 5e-4}, {1e-2, 2e-5}, {2e-2, 2e-4}});
+  tops.push_back({cases::ht2<double>(), {}, 1e-3, {2e-3, 1e-5}, {2e-3, 2.5e-5}, {4e-3, 1e-4}, {2e-3, 1e-5}, {4e-3, 5e-5}});
+  frees.push_back({cases::fb1<double>(), {}, 1e-2, {1e-1, 4e-4}, {2e-1, 1e-3}, {4e-1, 4e-3}, {1e-1, 2e-4}, {2e-1, 2e-3}});
 
   const auto t0 = std::chrono::steady_clock::now();
   auto check = [](Reference& r, const Reference& other, const std::string& what) {

@@ -47,7 +47,17 @@ SCHEME_COLORS = {
     "odeint-rk4": "#000000",
     "odeint-dopri5": "#8c564b",
 }
-ORDER_STYLES = {2: "-", 4: "--", 6: ":"}
+ORDER_STYLES = {"": "-", "o4": "--", "o4s": (0, (5, 1, 1, 1)), "o6": ":"}
+VARIANT_TITLES = {"o4": " (order 4)", "o4s": " (order 4, Suzuki)", "o6": " (order 6)"}
+
+
+def split_method(m):
+    """'simo-kappa-o4s' -> ('simo-kappa', 'o4s'); variants: o4 (triple jump), o4s (Suzuki's
+    five steps), o6 (Kahan-Li); '' for the base scheme and the baselines."""
+    for v in ("o4s", "o4", "o6"):
+        if m.endswith("-" + v):
+            return m[: -len(v) - 1], v
+    return m, ""
 
 
 def parse_label(label):
@@ -74,6 +84,7 @@ def load(report_dir):
                 "method": lab.get("method", name.split("/")[2]),
                 "scheme": lab.get("scheme", ""),
                 "order": int(lab.get("order", "0") or 0),
+                "stages": int(lab.get("stages", "1") or 1),
                 "h": float(lab.get("h", "nan")),
                 "tol": float(lab.get("tol", "0")),
                 "error": b.get("error_message", "") if b.get("error_occurred") else "",
@@ -120,7 +131,8 @@ def fmt(x, digits=2):
 
 
 def method_title(m):
-    return m.replace("-o4", " (order 4)").replace("-o6", " (order 6)")
+    base, v = split_method(m)
+    return base + VARIANT_TITLES.get(v, "")
 
 
 def config_text(r):
@@ -352,7 +364,7 @@ def write_report(report_dir, context, sweep, steps, machine):
                 cells.append("not reached")
             else:
                 what = (f"tol {r['tol']:.0e}" if is_dopri(r) else
-                        f"{r['method'].replace('-o4', '').replace('-o6', '')}, h {r['h']:.2g}")
+                        f"{method_title(r['method']).replace(' (order 4)', '').replace(' (order 6)', '')}, h {r['h']:.2g}")
                 cells.append(f"{fmt(r['cpu_ms'], 3)} ms ({what})")
         L.append(f"| {e['case'].upper()} | {e['level']:g} | " + " | ".join(cells) + " |")
     L.append("")
@@ -423,11 +435,10 @@ def series_by_method(rows):
 
 
 def style(method):
-    scheme = method.replace("-o4", "").replace("-o6", "")
+    scheme, variant = split_method(method)
     if scheme.startswith("odeint-dopri5"):
         scheme = "odeint-dopri5"
-    order = 4 if method.endswith("-o4") else 6 if method.endswith("-o6") else 2
-    kw = {"color": SCHEME_COLORS.get(scheme, "gray"), "linestyle": ORDER_STYLES[order], "linewidth": 1.4}
+    kw = {"color": SCHEME_COLORS.get(scheme, "gray"), "linestyle": ORDER_STYLES[variant], "linewidth": 1.4}
     if scheme in ("rk4", "odeint-rk4", "odeint-dopri5"):
         kw["linestyle"] = "-."
         kw["linewidth"] = 1.8
@@ -442,10 +453,10 @@ def style(method):
 def method_order(m):
     rank = {"simo-alpha": 0, "geradin-bauchau-paper": 1, "simo-kappa": 2, "simo-collocation": 3, "geradin-bauchau": 4,
             "rk4": 10, "odeint-rk4": 11, "odeint-dopri5": 12}
-    base = m.replace("-o4", "").replace("-o6", "")
+    base, variant = split_method(m)
     if base.startswith("odeint-dopri5"):
         base = "odeint-dopri5"
-    return (rank.get(base, 9), 4 if m.endswith("-o4") else 6 if m.endswith("-o6") else 2)
+    return (rank.get(base, 9), ["", "o4", "o4s", "o6"].index(variant))
 
 
 def plot_grid(report_dir, sweep, fname, xkey, ykey, xlabel, ylabel, title, methods_filter=None, yfloor=None,
@@ -485,7 +496,7 @@ def plot_frontier(report_dir, sweep, fr):
     for ax, case in zip(axes, ("ht0", "ht1")):
         by = series_by_method(ok_rows(sweep, case))
         for m in sorted(by, key=method_order):
-            base = m.replace("-o4", "").replace("-o6", "")
+            base = split_method(m)[0]
             if base not in EXACT_SCHEMES and base not in ("rk4", "odeint-rk4", "odeint-dopri5"):
                 continue
             rows = by[m]
@@ -569,7 +580,7 @@ def main():
     plot_grid(report_dir, sweep, "newton_vs_h.png", "h", "newton", "h", "Newton iterations per base step",
               "Newton iterations vs step size",
               methods_filter=lambda m: m not in ("rk4", "odeint-rk4", "odeint-dopri5"),
-              transform=lambda r: r["newton"] / (3 if r["order"] == 4 else 9 if r["order"] == 6 else 1), linear_y=True)
+              transform=lambda r: r["newton"] / r["stages"], linear_y=True)
     plot_frontier(report_dir, sweep, fr)
     plot_energy_series(report_dir)
 

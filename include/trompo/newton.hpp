@@ -175,23 +175,33 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
       }
     }
     if (fresh) {
-      // Singular tangent: |det K| tiny against the product of its column norms.
-      const Scalar det = K.determinant();
+      // K⁻¹ = adj(K)/det K, the cofactors computed once for both. Singular tangent:
+      // |det K| tiny against the product of its column norms.
+      const Vector3 c0 = K.col(1).cross(K.col(2)), c1 = K.col(2).cross(K.col(0)), c2 = K.col(0).cross(K.col(1));
+      const Scalar det = K.col(0).dot(c0);
       const Scalar bound = K.col(0).norm() * K.col(1).norm() * K.col(2).norm();
       if (!(std::abs(det) > Scalar(16) * eps * bound)) {
         rep.status = StepStatus::singular_tangent;
         return rep;
       }
-      K_inv = K.inverse();  // cofactor inverse of a fixed 3×3
+      K_inv.row(0) = c0.transpose() / det;
+      K_inv.row(1) = c1.transpose() / det;
+      K_inv.row(2) = c2.transpose() / det;
     }
     const Vector3 dx = -(K_inv * R);
     x += dx;
     const Scalar step = dx.norm();
     ++rep.iterations;
     // Accepted by the contraction estimate (see above): two corrections of one kind.
-    if (reuse && k > 0 && fresh == last_fresh) {
+    // Or a first chord correction already at round-off (≤ 8ε·x_scale, the size at which
+    // the next evaluation would stop as stalled) after a Newton step that contracted by
+    // 10⁶ or more: the chord rate is then ≤ 10⁻³ even at the 30× above, and the
+    // confirming evaluation could only move x by ≤ 8·10⁻³ ε·x_scale.
+    if (reuse && k > 0) {
       const Scalar rho = r / r_prev;
-      if (rho <= Scalar(0.01) && rho * step <= eps * size / Scalar(1024)) {
+      const bool estimated = fresh == last_fresh && rho <= Scalar(0.01) && rho * step <= eps * size / Scalar(1024);
+      const bool at_roundoff = !fresh && last_fresh && rho <= Scalar(1e-6) && step <= Scalar(8) * eps * size;
+      if (estimated || at_roundoff) {
         if (tangent) *tangent = K;
         return rep;
       }

@@ -41,6 +41,17 @@ class SO3 {
     return m;
   }
 
+  /// x̂² = x xᵀ − |x|² I, its diagonal written as −(y² + z²), … (no cancellation).
+  static Matrix3 hat_squared(const Vector3& x) {
+    const Scalar xx = x.x() * x.x(), yy = x.y() * x.y(), zz = x.z() * x.z();
+    const Scalar xy = x.x() * x.y(), xz = x.x() * x.z(), yz = x.y() * x.z();
+    Matrix3 m;
+    m << -(yy + zz), xy, xz,  //
+        xy, -(xx + zz), yz,   //
+        xz, yz, -(xx + yy);
+    return m;
+  }
+
   /// vee: the vector of the skew part of m, (m − mᵀ)/2.
   static Vector3 vee(const Matrix3& m) {
     return Vector3(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1)) / Scalar(2);
@@ -48,19 +59,21 @@ class SO3 {
 
   /// exp(x̂), eq. (8), as a rotation: quaternion (cos θ/2, sin(θ/2)/θ x).
   static SO3 exp(const Vector3& x) {
-    using std::cos;
-    const Scalar theta = x.norm();
-    const Scalar half = theta / 2;
-    const Vector3 v = x * (detail::sinc(half) / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
-    return SO3(Quaternion(cos(half), v.x(), v.y(), v.z()), NoCheck{});
+    const detail::HalfAngle<Scalar> c = detail::half_angle(x.norm());
+    const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
+    return SO3(Quaternion(c.cos_half, v.x(), v.y(), v.z()), NoCheck{});
   }
 
   /// exp(x̂) = I + (sin θ/θ) x̂ + ((1−cos θ)/θ²) x̂², eq. (8), as a matrix (Rodrigues).
   static Matrix3 exp_matrix(const Vector3& x) {
-    const Scalar theta = x.norm();
-    const Matrix3 X = hat(x);
-    return Matrix3::Identity() + detail::sinc(theta) * X +
-           detail::one_minus_cos_over_sq(theta) * X * X;
+    const detail::HalfAngle<Scalar> c = detail::half_angle(x.norm());
+    return rodrigues(x, c.sinc(), c.one_minus_cos_over_sq());
+  }
+
+  /// I + a x̂ + b x̂²: exp(x̂) from its coefficients a = sin θ/θ, b = (1 − cos θ)/θ² (8),
+  /// for callers that already have them (detail::HalfAngle).
+  static Matrix3 rodrigues(const Vector3& x, Scalar a, Scalar b) {
+    return Matrix3::Identity() + a * hat(x) + b * hat_squared(x);
   }
 
   /// Right tangent T(x) = I − ((1−cos θ)/θ²) x̂ + ((θ − sin θ)/θ³) x̂² (THEORY §2):
@@ -69,7 +82,7 @@ class SO3 {
     const Scalar theta = x.norm();
     const Matrix3 X = hat(x);
     return Matrix3::Identity() - detail::one_minus_cos_over_sq(theta) * X +
-           detail::theta_minus_sin_over_cube(theta) * X * X;
+           detail::theta_minus_sin_over_cube(theta) * hat_squared(x);
   }
 
   /// T(x)⁻¹ = I + ½ x̂ + ((1 − (θ/2) cot(θ/2))/θ²) x̂², for θ < 2π.
@@ -77,7 +90,7 @@ class SO3 {
     const Scalar theta = x.norm();
     const Matrix3 X = hat(x);
     return Matrix3::Identity() + X / Scalar(2) +
-           detail::inverse_tangent_coefficient(theta) * X * X;
+           detail::inverse_tangent_coefficient(theta) * hat_squared(x);
   }
 
   /// The rotation of a matrix, which must be orthonormal with det +1 to `tolerance`

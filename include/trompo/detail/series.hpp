@@ -2,7 +2,7 @@
 // Small-angle coefficients of the rotation formulas (THEORY §2), evaluated without 0/0.
 //
 // Every coefficient below is an even function of θ. Below `small_angle<Scalar>::theta`
-// it is taken from its Taylor series in θ² (Horner form, terms through θ¹²); above, from
+// it is taken from its Taylor series in θ² (terms through θ¹², see polynomial()); above, from
 // the closed form. The two branches are tied together as follows (STYLE item 5):
 //   - truncation: the first omitted term is below θ¹⁴/14! ≈ 1e-21 relative at θ = 1/4,
 //     under the epsilon of every Scalar we support (float, double, 80-bit long double);
@@ -22,13 +22,21 @@ struct small_angle {
   static constexpr Scalar theta = Scalar(0.25);
 };
 
-/// Horner evaluation of c[0] + c[1] x + c[2] x² + … for x = θ². The coefficients are
-/// exact rationals written in long double and rounded once to Scalar.
-template <class Scalar, std::size_t N>
-constexpr Scalar horner(Scalar x, const std::array<long double, N>& c) {
-  Scalar sum = Scalar(c[N - 1]);
-  for (std::size_t k = N - 1; k-- > 0;) sum = Scalar(c[k]) + x * sum;
-  return sum;
+/// c[0] + c[1] x + … + c[6] x⁶ for x = θ², by Estrin's scheme: the pairs c[2i] + c[2i+1] x
+/// are summed with the powers x², x⁴. Same terms as Horner's rule, but a dependency
+/// chain of 4 multiply-adds instead of 7, so the series of one residual evaluation
+/// overlap in the pipeline (they are on the Newton loop's critical path). The leading
+/// term dominates (|c[k] x^k| ≤ |c[0]|/6 for θ ≤ ½), so the rounding is ~ε·|c[0]| as
+/// with Horner. The coefficients are exact rationals written in long double and
+/// rounded once to Scalar.
+template <class Scalar>
+constexpr Scalar polynomial(Scalar x, const std::array<long double, 7>& c) {
+  const Scalar x2 = x * x;
+  const Scalar x4 = x2 * x2;
+  const Scalar p01 = Scalar(c[0]) + Scalar(c[1]) * x;
+  const Scalar p23 = Scalar(c[2]) + Scalar(c[3]) * x;
+  const Scalar p45 = Scalar(c[4]) + Scalar(c[5]) * x;
+  return (p01 + x2 * p23) + x4 * (p45 + x2 * Scalar(c[6]));
 }
 
 /// sin θ / θ  (the "a" coefficient of exp, eq. (8)).
@@ -37,7 +45,7 @@ Scalar sinc(Scalar theta) {
   using std::sin;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return horner(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L});
+    return polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L});
   }
   return sin(theta) / theta;
 }
@@ -48,7 +56,7 @@ Scalar one_minus_cos_over_sq(Scalar theta) {
   using std::cos;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return horner(x, std::array<long double, 7>{1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L});
+    return polynomial(x, std::array<long double, 7>{1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L});
   }
   return (Scalar(1) - cos(theta)) / (theta * theta);
 }
@@ -59,7 +67,7 @@ Scalar theta_minus_sin_over_cube(Scalar theta) {
   using std::sin;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return horner(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+    return polynomial(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
   }
   return (theta - sin(theta)) / (theta * theta * theta);
 }
@@ -72,10 +80,39 @@ Scalar inverse_tangent_coefficient(Scalar theta) {
   using std::sin;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return horner(x, std::array<long double, 7>{1.0L / 12, 1.0L / 720, 1.0L / 30240, 1.0L / 1209600, 1.0L / 47900160, 691.0L / 1307674368000.0L, 1.0L / 74724249600.0L});
+    return polynomial(x, std::array<long double, 7>{1.0L / 12, 1.0L / 720, 1.0L / 30240, 1.0L / 1209600, 1.0L / 47900160, 691.0L / 1307674368000.0L, 1.0L / 74724249600.0L});
   }
   const Scalar half = theta / 2;
   return (Scalar(1) - half * cos(half) / sin(half)) / (theta * theta);
+}
+
+/// κ = sin(θ/2)/(θ/2) and cos(θ/2), from which the coefficients of exp(Θ̂) and of the
+/// half-step rotation exp(Θ̂/2) follow without cancellation (half-angle identities):
+///   sin θ/θ = κ cos(θ/2),            (1 − cos θ)/θ² = κ²/2,
+///   sin(θ/2)/(θ/2) = κ,              (1 − cos(θ/2))/(θ/2)² = κ²/(1 + cos(θ/2)).
+/// One sin/cos pair above the switch (θ/2 ≥ ¼), two short series below it: the Newton
+/// residual of the Simo schemes needs all four, which cost five series before.
+template <class Scalar>
+struct HalfAngle {
+  Scalar kappa;     ///< sin(θ/2)/(θ/2), the κ of (19)
+  Scalar cos_half;  ///< cos(θ/2)
+  Scalar sinc() const { return kappa * cos_half; }                    ///< sin θ / θ
+  Scalar one_minus_cos_over_sq() const { return kappa * kappa / 2; }  ///< (1 − cos θ)/θ²
+  /// (1 − cos(θ/2))/(θ/2)², the b coefficient of exp(Θ̂/2); 1 + cos(θ/2) > 0 for |θ| < 2π.
+  Scalar half_one_minus_cos_over_sq() const { return kappa * kappa / (Scalar(1) + cos_half); }
+};
+
+template <class Scalar>
+HalfAngle<Scalar> half_angle(Scalar theta) {
+  using std::cos;
+  using std::sin;
+  const Scalar y = theta / 2;
+  if (std::abs(y) < small_angle<Scalar>::theta) {
+    const Scalar x = y * y;
+    return {polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L}),
+            polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 2, 1.0L / 24, -1.0L / 720, 1.0L / 40320, -1.0L / 3628800, 1.0L / 479001600.0L})};
+  }
+  return {sin(y) / y, cos(y)};
 }
 
 /// κ(θ) = sin(θ/2)/(θ/2), the Simo-κ projection factor, eq. (19).
@@ -90,7 +127,7 @@ Scalar one_minus_kappa(Scalar theta) {
   const Scalar x = theta * theta / 4;  // (θ/2)²
   if (std::abs(theta) < 2 * small_angle<Scalar>::theta) {
     // 1 − sinc(y) = y²/3! − y⁴/5! + …,  y = θ/2
-    return x * horner(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+    return x * polynomial(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
   }
   return Scalar(1) - kappa(theta);
 }
@@ -105,7 +142,7 @@ Scalar kappa_prime_over_theta(Scalar theta) {
   if (std::abs(y) < small_angle<Scalar>::theta) {
     // d/dθ sinc(θ/2) = ½ sinc′(y);  sinc′(y)/y = −1/3 + y²/30 − y⁴/840 + …;  /θ = /(2y)
     const Scalar x = y * y;
-    return horner(x, std::array<long double, 7>{-1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L}) /
+    return polynomial(x, std::array<long double, 7>{-1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L}) /
            4;
   }
   return (y * cos(y) - sin(y)) / (theta * theta * theta / 2);

@@ -190,14 +190,15 @@ class SimoResidual {
     const Scalar h = d_.h;
     const Matrix3& J = scene.body().inertia();
     const Vector3 Theta = h * d_.omega_n + y;
-    // exp(Θ̂) = I + aΘ̂ + bΘ̂² (8) and T(Θ) = I − bΘ̂ + cΘ̂² (THEORY §2) share θ, Θ̂, Θ̂²
-    // and the coefficients: computed once here (SO3::exp_matrix and right_tangent would
-    // each redo them: a fifth of the free body's step, bench/bench_zero_cost.cpp).
+    // exp(Θ̂) = I + aΘ̂ + bΘ̂² (8), T(Θ) = I − bΘ̂ + cΘ̂² (THEORY §2), κ (19) and the half
+    // rotation exp(Θ̂/2) share θ and the half-angle pair (κ, cos θ/2): computed once
+    // here (SO3::exp_matrix, right_tangent and kappa would each redo them).
     const Scalar theta = Theta.norm();
-    const Scalar a = detail::sinc(theta);
-    const Scalar b = detail::one_minus_cos_over_sq(theta);
-    const Vector3 omega_next = d_.omega_n + Scalar(2) * y / h;  // (9): Ω_{n+1} = 2Θ/h − Ω_n
-    const Vector3 Pi_next = scene.momentum(omega_next);
+    const detail::HalfAngle<Scalar> ha = detail::half_angle(theta);
+    const Scalar a = ha.sinc();
+    const Scalar b = ha.one_minus_cos_over_sq();
+    const Vector3 dPi = (Scalar(2) / h) * scene.body().momentum(y);  // Π_{n+1} − Π_n = (2/h) J y
+    const Vector3 Pi_next = d_.Pi_n + dPi;
     // [T1] momentum part, exp(Θ̂)Π_{n+1} − Π_n, written without the matrix Q:
     //   (Π_{n+1} − Π_n) + a Θ×Π_{n+1} + b Θ×(Θ×Π_{n+1}),  Π_{n+1} − Π_n = (2/h) J y,
     // with a, b the coefficients of (8). The product Q Π_{n+1} would round the diagonal
@@ -205,29 +206,29 @@ class SimoResidual {
     // near-steady (HT1: Θ almost along the spin axis), and H, μ drifted like N·ε
     // (−4e-12 after 1e6 steps of Simo-κ on HT1). Every term here is small.
     const Vector3 c1 = Theta.cross(Pi_next);
-    R = (Scalar(2) / h) * scene.body().momentum(y) + a * c1 + b * Theta.cross(c1);
-    scale = d_.Pi_n.norm() + Pi_next.norm();
+    R = dPi + a * c1 + b * Theta.cross(c1);
+    scale = d_.Pi_n_norm + Pi_next.norm();
     // Q = exp(Θ̂) and T(Θ): needed by the tangent, and by the general potentials' and
     // collocation's energy terms (V and τ at Λ_{n+1}); not by R otherwise.
     constexpr bool need_Q = general_projection;
     Matrix3 Q, T;
     if (K || need_Q) {
       const Matrix3 X = G::hat(Theta);
-      const Matrix3 X2 = X * X;
+      const Matrix3 X2 = G::hat_squared(Theta);
       Q = Matrix3::Identity() + a * X + b * X2;
       T = Matrix3::Identity() - b * X + detail::theta_minus_sin_over_cube(theta) * X2;
     }
     if (K) *K = Q * ((Scalar(2) / h) * J - G::hat(Pi_next) * T);  // [T3] first line
 
     if constexpr (Scene::has_potential) {
-      if (!add_conservative(Theta, Q, T, R, K, scale)) return false;  // general V: no projection
+      if (!add_conservative(Theta, ha, Q, T, R, K, scale)) return false;  // general V: no projection
     }
     if constexpr (Scene::has_applied_torque) {
       // τ_a at Λ_{n+½}, Ω_m = Θ/h (THEORY §5); ∂/∂Θ through w = ½T(Θ/2)δΘ and Ω_m.
       const Vector3 half = Theta / Scalar(2);
       Matrix3 d_rot, d_omega;
-      const Vector3 tau = scene.applied_torque(d_.caches, G::exp_matrix(half), Theta / h, K ? &d_rot : nullptr,
-                                               K ? &d_omega : nullptr);
+      const Vector3 tau = scene.applied_torque(d_.caches, half_rotation(Theta, ha), Theta / h,
+                                               K ? &d_rot : nullptr, K ? &d_omega : nullptr);
       R -= h * tau;
       if (K) *K -= (h / Scalar(2)) * d_rot * G::right_tangent(half) + d_omega;
       scale += std::abs(h) * tau.norm();
@@ -249,8 +250,13 @@ class SimoResidual {
   /// The potentials' terms of [T1] and [T3]. False when the projection of a general V
   /// does not exist at this Θ (see below): Newton then reports out_of_domain, and
   /// integrate() retries the interval as sub-steps.
-  bool add_conservative(const Vector3& Theta, const Matrix3& Q, const Matrix3& T, Vector3& R, Matrix3* K,
-                        Scalar& scale) const {
+  /// exp(Θ̂/2) = I + κ Θ̂/2 + (κ²/(1 + cos θ/2)) (Θ̂/2)² (8), from the half-angle pair.
+  static Matrix3 half_rotation(const Vector3& Theta, const detail::HalfAngle<Scalar>& ha) {
+    return G::rodrigues(Theta / Scalar(2), ha.kappa, ha.half_one_minus_cos_over_sq());
+  }
+
+  bool add_conservative(const Vector3& Theta, const detail::HalfAngle<Scalar>& ha, const Matrix3& Q,
+                        const Matrix3& T, Vector3& R, Matrix3* K, Scalar& scale) const {
     const Scene& scene = d_.scene;
     const Scalar h = d_.h;
     const Scalar theta = Theta.norm();
@@ -260,7 +266,7 @@ class SimoResidual {
     if constexpr (std::is_same_v<Scheme, SimoAlpha>) {
       alpha = Scalar(scheme_.alpha);
     } else if constexpr (std::is_same_v<Scheme, SimoKappa> && Scene::potentials_linear) {
-      kappa = detail::kappa(theta);                                    // (19)
+      kappa = ha.kappa;                                                // (19)
     }
 
     // General potential (THEORY §3): f(ξ) = V(Λ_n exp(ξΘ̂)), f′(ξ) = −Θ·τ(ξΘ), and the
@@ -278,7 +284,7 @@ class SimoResidual {
     if constexpr (std::is_same_v<Scheme, SimoCollocation>) {
       if constexpr (Scene::potentials_linear) {
         // α(Θ) from [T2], via the midpoint torque and its Jacobian.
-        const Matrix3 R_half = G::exp_matrix(Theta / Scalar(2));
+        const Matrix3 R_half = half_rotation(Theta, ha);
         Matrix3 J_half;
         const Vector3 tau_half = scene.conservative_torque(d_.caches, R_half, &J_half);
         Scalar B(0), C(0);
@@ -311,12 +317,18 @@ class SimoResidual {
     }
 
     const Vector3 a_Theta = alpha * Theta;
-    const Matrix3 R_alpha = G::exp_matrix(a_Theta);
+    const Matrix3 R_alpha = alpha == Scalar(0.5) ? half_rotation(Theta, ha) : G::exp_matrix(a_Theta);
     // J_α = ∂τ/∂w at Λ_{n+α}: the tangent's, and (general V) the projections' scales.
     const bool need_J = K || general_projection;
     Matrix3 J_alpha, T_alpha;
     const Vector3 tau = scene.conservative_torque(d_.caches, R_alpha, need_J ? &J_alpha : nullptr);
-    if (K) T_alpha = G::right_tangent(a_Theta);
+    if (K) {
+      // T(Θ/2) = I − b_½ Θ̂/2 + c_½ (Θ̂/2)² (THEORY §2), b_½ from the half-angle pair.
+      const Vector3 x = Theta / Scalar(2);
+      T_alpha = alpha == Scalar(0.5) ? Matrix3(Matrix3::Identity() - ha.half_one_minus_cos_over_sq() * G::hat(x) +
+                                               detail::theta_minus_sin_over_cube(theta / Scalar(2)) * G::hat_squared(x))
+                                     : G::right_tangent(a_Theta);
+    }
 
     [[maybe_unused]] Vector3 grad_f_1 = Vector3::Zero();  // ∇_Θ f(1) = −T(Θ)ᵀ Qᵀ τ_1
     if constexpr (general_projection) {

@@ -16,10 +16,11 @@ struct StepData {
   Scalar h;
   Vector3 omega_n;                  ///< Ω_n
   Vector3 Pi_n;                     ///< Π_n = JΩ_n + h_r
+  Scalar Pi_n_norm;                 ///< ‖Π_n‖ (part of the residuals' scale)
   typename Scene::Caches caches;    ///< effects' per-step data (b = Λ_nᵀ𝐠 for gravity)
 
   StepData(const Scene& s, const State<Scalar>& st, Scalar step)
-      : scene(s), h(step), omega_n(st.omega), Pi_n(s.momentum(st.omega)),
+      : scene(s), h(step), omega_n(st.omega), Pi_n(s.momentum(st.omega)), Pi_n_norm(Pi_n.norm()),
         caches(s.caches(st.rotation.matrix(), st.time + step / 2)) {}
 
   /// Ω̇_n from Euler's equations, J Ω̇ = Π × Ω + τ (explicit, for the predictor).

@@ -73,7 +73,11 @@ using Hi = long double;
 constexpr bool kExactReference = false;
 #endif
 
-enum class Coef { sinc, one_minus_cos_over_sq, theta_minus_sin_over_cube, inverse_tangent, kappa, one_minus_kappa, kappa_prime_over_theta };
+enum class Coef {
+  sinc, one_minus_cos_over_sq, theta_minus_sin_over_cube, inverse_tangent, kappa, one_minus_kappa, kappa_prime_over_theta,
+  // detail::half_angle and the coefficients derived from it (series switch at θ = ½)
+  half_kappa, half_cos, half_sinc, half_one_minus_cos_over_sq, half_b_half
+};
 
 const char* name(Coef c) {
   switch (c) {
@@ -84,6 +88,11 @@ const char* name(Coef c) {
     case Coef::kappa: return "kappa";
     case Coef::one_minus_kappa: return "one_minus_kappa";
     case Coef::kappa_prime_over_theta: return "kappa_prime_over_theta";
+    case Coef::half_kappa: return "half_angle.kappa";
+    case Coef::half_cos: return "half_angle.cos_half";
+    case Coef::half_sinc: return "half_angle.sinc()";
+    case Coef::half_one_minus_cos_over_sq: return "half_angle.one_minus_cos_over_sq()";
+    case Coef::half_b_half: return "half_angle.half_one_minus_cos_over_sq()";
   }
   return "?";
 }
@@ -101,6 +110,11 @@ Hi reference(Coef c, Hi t) {
       case Coef::kappa: return Hi(1);
       case Coef::one_minus_kappa: return Hi(0);
       case Coef::kappa_prime_over_theta: return Hi(-1) / 12;
+      case Coef::half_kappa: return Hi(1);
+      case Coef::half_cos: return Hi(1);
+      case Coef::half_sinc: return Hi(1);
+      case Coef::half_one_minus_cos_over_sq: return Hi(1) / 2;
+      case Coef::half_b_half: return Hi(1) / 2;
     }
   }
   const Hi y = t / 2;
@@ -112,6 +126,11 @@ Hi reference(Coef c, Hi t) {
     case Coef::kappa: return sin(y) / y;
     case Coef::one_minus_kappa: return 1 - sin(y) / y;
     case Coef::kappa_prime_over_theta: return (y * cos(y) - sin(y)) / (t * t * t / 2);
+    case Coef::half_kappa: return sin(y) / y;
+    case Coef::half_cos: return cos(y);
+    case Coef::half_sinc: return sin(t) / t;
+    case Coef::half_one_minus_cos_over_sq: return (1 - cos(t)) / (t * t);
+    case Coef::half_b_half: return (1 - cos(y)) / (y * y);
   }
   return Hi(0);
 }
@@ -127,6 +146,11 @@ S evaluate(Coef c, S t) {
     case Coef::kappa: return d::kappa(t);
     case Coef::one_minus_kappa: return d::one_minus_kappa(t);
     case Coef::kappa_prime_over_theta: return d::kappa_prime_over_theta(t);
+    case Coef::half_kappa: return d::half_angle(t).kappa;
+    case Coef::half_cos: return d::half_angle(t).cos_half;
+    case Coef::half_sinc: return d::half_angle(t).sinc();
+    case Coef::half_one_minus_cos_over_sq: return d::half_angle(t).one_minus_cos_over_sq();
+    case Coef::half_b_half: return d::half_angle(t).half_one_minus_cos_over_sq();
   }
   return S(0);
 }
@@ -169,8 +193,9 @@ TEMPLATE_TEST_CASE("SO3 series coefficients: relative error vs high-precision cl
   // (1 − (θ/2)cot(θ/2))/θ², loses ~ε/(θ²/12) ≈ 200 ε at θ = ¼ in the last bit-rounding of
   // its cot; the series lose only a few ε. (1e-12 relative in double, STYLE item 5, is 4500 ε.)
   const double tol_ulps = 256;
-  const Coef all[] = {Coef::sinc,  Coef::one_minus_cos_over_sq, Coef::theta_minus_sin_over_cube, Coef::inverse_tangent,
-                      Coef::kappa, Coef::one_minus_kappa,       Coef::kappa_prime_over_theta};
+  const Coef all[] = {Coef::sinc,       Coef::one_minus_cos_over_sq, Coef::theta_minus_sin_over_cube, Coef::inverse_tangent,
+                      Coef::kappa,      Coef::one_minus_kappa,       Coef::kappa_prime_over_theta,    Coef::half_kappa,
+                      Coef::half_cos,   Coef::half_sinc,             Coef::half_one_minus_cos_over_sq, Coef::half_b_half};
   using std::abs;
   double worst_ulps = 0;
   for (Coef c : all) {
@@ -197,11 +222,13 @@ TEMPLATE_TEST_CASE("SO3 series coefficients: both branches agree across each swi
   // The value just below and just above a switch differ only by the slope over 2e-3·θ*:
   // compare the jump to the reference jump, so a branch with a wrong term shows up.
   const S th = trompo::detail::small_angle<S>::theta;
-  const Coef all[] = {Coef::sinc,  Coef::one_minus_cos_over_sq, Coef::theta_minus_sin_over_cube, Coef::inverse_tangent,
-                      Coef::kappa, Coef::one_minus_kappa,       Coef::kappa_prime_over_theta};
+  const Coef all[] = {Coef::sinc,       Coef::one_minus_cos_over_sq, Coef::theta_minus_sin_over_cube, Coef::inverse_tangent,
+                      Coef::kappa,      Coef::one_minus_kappa,       Coef::kappa_prime_over_theta,    Coef::half_kappa,
+                      Coef::half_cos,   Coef::half_sinc,             Coef::half_one_minus_cos_over_sq, Coef::half_b_half};
   for (Coef c : all) {
     using std::abs;
-    const bool kappa_family = c == Coef::kappa || c == Coef::one_minus_kappa || c == Coef::kappa_prime_over_theta;
+    const bool kappa_family = c == Coef::kappa || c == Coef::one_minus_kappa || c == Coef::kappa_prime_over_theta ||
+                              c >= Coef::half_kappa;  // the half-angle pair switches at θ/2 = ¼
     const S sw = kappa_family ? 2 * th : th;
     const S a = sw * (S(1) - S(1e-3L)), b = sw * (S(1) + S(1e-3L));
     const Hi ref_jump = reference(c, Hi(static_cast<LD>(b))) - reference(c, Hi(static_cast<LD>(a)));
@@ -228,6 +255,16 @@ TEMPLATE_TEST_CASE("SO3 hat/vee: hat(x) a = x cross a, hat is skew, vee(hat(x)) 
     CHECK((X * a - x.cross(a)).cwiseAbs().maxCoeff() <= 8 * eps<S>() * S(25));
     CHECK((X + X.transpose()).cwiseAbs().maxCoeff() == S(0));
     CHECK(SO3<S>::vee(X) == x);
+    // hat_squared(x) = x̂ x̂ = x xᵀ − |x|² I, symmetric, to a few ε of |x|².
+    const M3<S> X2 = SO3<S>::hat_squared(x);
+    CHECK((X2 - X * X).cwiseAbs().maxCoeff() <= 4 * eps<S>() * x.squaredNorm());
+    CHECK((X2 - (x * x.transpose() - x.squaredNorm() * M3<S>::Identity())).cwiseAbs().maxCoeff() <=
+          4 * eps<S>() * x.squaredNorm());
+    CHECK(X2 == X2.transpose());
+    // rodrigues(x, a, b) = I + a x̂ + b x̂², exp_matrix(x) with the coefficients of (8).
+    CHECK((SO3<S>::rodrigues(x, S(0.3), S(-0.2)) - (M3<S>::Identity() + S(0.3) * X + S(-0.2) * X * X))
+              .cwiseAbs()
+              .maxCoeff() <= 8 * eps<S>() * (S(1) + x.squaredNorm()));
     // vee keeps the skew part only: vee(M) = vee((M − Mᵀ)/2) for a general M.
     const M3<S> M = M3<S>::Random();
     CHECK((SO3<S>::vee(M) - SO3<S>::vee(M3<S>((M - M.transpose()) / S(2)))).cwiseAbs().maxCoeff() <= 4 * eps<S>());

@@ -22,11 +22,6 @@ using trompo_test::Vec3;
 
 namespace {
 
-template <class Scheme>
-constexpr bool is_alpha = std::is_same_v<Scheme, SimoAlpha>;
-template <class Scheme>
-constexpr bool is_gb_paper = std::is_same_v<Scheme, GeradinBauchauPaper>;
-
 /// The cases of the issue, with the step of the 10⁴-step invariant runs.
 struct CaseRun {
   const char* name;

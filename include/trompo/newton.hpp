@@ -100,14 +100,16 @@ namespace detail {
 /// matters: the remainder is smooth and of one sign from step to step, and an error δx
 /// in the increment moves H by ~4‖δx‖/x_scale relative, so accepting a remainder near
 /// ε·x_scale drifted H like N·4ε (measured); at ε/1024 it stays below round-off's √N·ε
-/// over the 10⁷-step runs of bench_long_run. A first chord step is never accepted by
-/// the estimate: the Newton step before it says nothing of its rate (measured: 30×
-/// slower than the Newton rate on an anisotropic top). opt.reuse_tangent = 0 gives
-/// plain Newton with the confirming evaluation every time.
+/// over the 10⁷-step runs of bench_long_run. A first chord step is not accepted by the
+/// estimate, since the Newton step before it says nothing of its rate (measured: a
+/// contraction factor 30× the Newton step's on an anisotropic top), unless it is already
+/// at round-off (see the loop). opt.reuse_tangent = 0 gives plain Newton with the
+/// confirming evaluation every time.
 ///
 /// rep.residual is the last evaluated ‖R‖/scale (before the final correction when the
 /// estimate accepted it). On success, `tangent` (if given) receives the last evaluated
-/// K: at the accepted x, or within a chord correction of it, which is what the fold
+/// K: at the accepted x, or at an iterate that chord corrections (each ≤
+/// opt.reuse_tangent·x_scale) separate from it, which is what the fold
 /// rule needs (the sign of det K, which changes only across a fold, where K is
 /// singular and the iteration fails).
 template <class Scalar, class Eval>

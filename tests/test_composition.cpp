@@ -151,7 +151,7 @@ TEST_CASE("composition weights: Suzuki's five steps, consistent, symmetric, orde
   CHECK_THROWS_AS((ComposedStepper<SimoAlpha, Top>(SimoAlpha(0.3), ht.scene, Composition::suzuki5)), invalid_input);
 }
 
-TEST_CASE("composition: Suzuki's order 4, observed order and H, μ exact; far smaller error than the triple jump on HT1",
+TEST_CASE("composition: Suzuki's order 4, observed order and H, μ exact — far smaller error than the triple jump on HT1",
           "[composition][order]") {
   const auto ht1 = cases::ht1<double>();
   CHECK(observed_order(SimoKappa{}, ht1, Composition::suzuki5, 0.005, 1.0) == Approx(4.0).margin(0.2));
@@ -311,7 +311,7 @@ TEST_CASE("composition: collocation on a fast top is capped near order 3 by the 
   CHECK(observed_order(SimoKappa{}, c, 6, 0.005, 1.0) == Approx(6.0).margin(0.2));
 }
 
-TEST_CASE("composition keeps H and μ exact (Simo-κ, collocation, GB; HT1 and HT2)", "[composition][invariants]") {
+TEST_CASE("composition keeps H and μ exact (Simo-κ, collocation, GB — HT1 and HT2)", "[composition][invariants]") {
   const auto ht1 = cases::ht1<double>();
   const auto ht2 = cases::ht2<double>();
   for (int order : {4, 6}) {

@@ -282,7 +282,7 @@ TEMPLATE_TEST_CASE("row space torque S(t): power identity and pi_{n+1} - pi_n = 
   }
 }
 
-TEMPLATE_TEST_CASE("row gyrostat rotor: H and pi = Lambda (J Omega + h_r) exact; with gravity H and mu",
+TEMPLATE_TEST_CASE("row gyrostat rotor: H and pi = Lambda (J Omega + h_r) exact — with gravity H and mu",
                    "[effects][table][rotor]", TROMPO_ALL_SCHEMES) {
   const Rotor<double> rotor(Vec3(0.5, 2.0, -1.0));
   SECTION("free body with rotor") {

@@ -355,7 +355,7 @@ TEST_CASE("integrate lands exactly on t_end and matches plain stepping bit for b
   }
 }
 
-TEST_CASE("the observer sees the start and every grid time; none costs nothing", "[robustness][integrate]") {
+TEST_CASE("the observer sees the start and every grid time — none costs nothing", "[robustness][integrate]") {
   static_assert(std::is_empty_v<NoObserver>);
   const auto c = cases::fb1<double>();
   const Stepper<GeradinBauchau, cases::Free<double>> st(GeradinBauchau{}, c.scene);

@@ -341,7 +341,7 @@ TEST_CASE("Collocation alpha of [T2]: matches an independent high-precision root
   WARN("collocation alpha: worst |alpha - reference| " << worst);
 }
 
-TEST_CASE("Collocation alpha of [T2]: degenerate limits (theta = 0, 1e-8; sleeping top B = C = 0) give alpha -> 1/2 without 0/0",
+TEST_CASE("Collocation alpha of [T2]: degenerate limits (theta = 0, 1e-8 — sleeping top B = C = 0) give alpha -> 1/2 without 0/0",
           "[tangent][collocation]") {
   CHECK(detail::collocation_alpha(0.0, 0.3, -0.2) == 0.5);
   CHECK(detail::collocation_alpha(0.7, 0.0, 0.0) == 0.5);

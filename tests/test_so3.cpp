@@ -445,6 +445,18 @@ TEMPLATE_TEST_CASE("SO3 from_matrix: accepts rotations within tolerance, rejects
   CHECK_THROWS_AS(SO3<S>::from_quaternion(q), trompo::invalid_input);
   CHECK(std::abs(static_cast<double>(SO3<S>::renormalized(q).unit_quaternion().norm()) - 1.0) <=
         4 * static_cast<double>(eps<S>()));
+  // Far from |q| = 1, where |q|² overflows or underflows: rescaled first, never the zero
+  // quaternion (which normalising by an infinite norm gave) and never a spurious throw.
+  for (const S big : {std::numeric_limits<S>::max() / S(4), S(1) / std::numeric_limits<S>::min(),
+                      std::numeric_limits<S>::min() * S(4), std::numeric_limits<S>::denorm_min()}) {
+    const Eigen::Quaternion<S> far(big, -big, S(0), big);
+    const auto u = SO3<S>::renormalized(far).unit_quaternion();
+    CAPTURE(static_cast<double>(big));
+    CHECK(std::abs(static_cast<double>(u.norm()) - 1.0) <= 4 * static_cast<double>(eps<S>()));
+    CHECK(std::abs(static_cast<double>(u.w()) - 1.0 / std::sqrt(3.0)) <= 1e-6);
+    CHECK(std::abs(static_cast<double>(u.x()) + 1.0 / std::sqrt(3.0)) <= 1e-6);
+  }
+  CHECK_THROWS_AS(SO3<S>::renormalized(Eigen::Quaternion<S>(S(0), S(0), S(0), S(0))), trompo::invalid_input);
 }
 
 TEMPLATE_TEST_CASE("SO3 renormalized: repairs a drifted matrix to its polar rotation (error <= 64 eps), rejects singular and reflecting input",

@@ -29,8 +29,9 @@ template <class... Parts>
 
 template <class Derived>
 bool all_finite(const Derived& m) {
+  using std::isfinite;  // in the Scalar's own type: a long double beyond 1e308 is finite
   for (Eigen::Index i = 0; i < m.size(); ++i)
-    if (!std::isfinite(static_cast<double>(m.data()[i]))) return false;
+    if (!isfinite(m.data()[i])) return false;
   return true;
 }
 

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <cmath>
+#include <limits>
 
 #include "trompo/detail/series.hpp"
 #include "trompo/errors.hpp"
@@ -130,9 +131,10 @@ class SO3 {
     return SO3(q, Normalize{});
   }
 
-  /// The rotation of any non-zero quaternion, normalised.
+  /// The rotation of any non-zero finite quaternion, normalised (also when |q|² would
+  /// overflow or underflow: 1e200 or 1e-200 per coefficient in double).
   static SO3 renormalized(const Quaternion& q) {
-    if (!detail::all_finite(q.coeffs()) || !(q.norm() > 0))
+    if (!detail::all_finite(q.coeffs()) || !(q.coeffs().cwiseAbs().maxCoeff() > 0))
       detail::fail("rotation: cannot normalise quaternion ", detail::to_text(q.coeffs()));
     return SO3(q, Normalize{});
   }
@@ -168,7 +170,16 @@ class SO3 {
   struct Normalize {};
   SO3(const Quaternion& q, NoCheck) : q_(q) { canonical(); }
   SO3(const Quaternion& q, Normalize) : q_(q) {
-    q_.normalize();
+    // |q|² overflows to inf (and normalising then gives the zero quaternion) or
+    // underflows to 0 far from |q| = 1: rescale by the largest coefficient first there.
+    // Products of unit quaternions never come near; this is for input.
+    using std::sqrt;
+    Scalar n2 = q_.squaredNorm();
+    if (!(n2 > sqrt(std::numeric_limits<Scalar>::min()) && n2 < sqrt(std::numeric_limits<Scalar>::max()))) {
+      q_.coeffs() /= q_.coeffs().cwiseAbs().maxCoeff();
+      n2 = q_.squaredNorm();
+    }
+    if (n2 > Scalar(0)) q_.coeffs() /= sqrt(n2);  // as Quaternion::normalize(), one |q|² only
     canonical();
   }
   // Keep w ≥ 0 so that log() returns |x| ≤ π.

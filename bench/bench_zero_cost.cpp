@@ -166,14 +166,7 @@ struct HandWritten {
         eval(true);
         if (!std::isfinite(K.sum())) return false;
       }
-      if (fresh) {
-        const Vec3 c0 = K.col(1).cross(K.col(2)), c1 = K.col(2).cross(K.col(0)), c2 = K.col(0).cross(K.col(1));
-        const double det = K.col(0).dot(c0);
-        if (!(std::abs(det) > 16 * eps * (K.col(0).norm() * K.col(1).norm() * K.col(2).norm()))) return false;
-        K_inv.row(0) = c0.transpose() / det;
-        K_inv.row(1) = c1.transpose() / det;
-        K_inv.row(2) = c2.transpose() / det;
-      }
+      if (fresh && !trompo::detail::invert_unless_singular(K, K_inv)) return false;
       const Vec3 dy = -(K_inv * R);
       y += dy;
       const double step = dy.norm();

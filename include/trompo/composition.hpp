@@ -74,7 +74,6 @@ inline Composition composition_of_order(int order) {
     case 6: return Composition::kahan_li9;
     default: detail::fail("composition: order must be 2, 4 or 6, got ", order);
   }
-  return Composition::base;  // not reached
 }
 
 /// The weights γ_1 … γ_s of a symmetric composition of order 2, 4 or 6.

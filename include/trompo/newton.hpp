@@ -7,7 +7,6 @@
 // checked for singularity; non-finite values stop the solve. Nothing here throws.
 #include <Eigen/Core>
 #include <Eigen/LU>
-#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -74,6 +73,22 @@ struct NewtonOptions {
 
 namespace detail {
 
+/// K⁻¹ = adj(K)/det K, the rows of adj(K) being the cross products of K's columns, so
+/// that the determinant and the inverse share them. False (K_inv untouched) when K is
+/// singular to working precision: |det K| ≤ 16ε‖k₀‖‖k₁‖‖k₂‖, k_i its columns.
+template <class Scalar>
+bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<Scalar, 3, 3>& K_inv) {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  const Vector3 c0 = K.col(1).cross(K.col(2)), c1 = K.col(2).cross(K.col(0)), c2 = K.col(0).cross(K.col(1));
+  const Scalar det = K.col(0).dot(c0);
+  const Scalar bound = K.col(0).norm() * K.col(1).norm() * K.col(2).norm();
+  if (!(std::abs(det) > Scalar(16) * std::numeric_limits<Scalar>::epsilon() * bound)) return false;
+  K_inv.row(0) = c0.transpose() / det;
+  K_inv.row(1) = c1.transpose() / det;
+  K_inv.row(2) = c2.transpose() / det;
+  return true;
+}
+
 /// Solves R(x) = 0 from x by Newton's method, reusing the tangent (simplified Newton)
 /// once the iteration is in its contraction region.
 ///
@@ -129,19 +144,27 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
   Scalar last_step = std::numeric_limits<Scalar>::infinity();
   Scalar r_prev = std::numeric_limits<Scalar>::infinity();
   bool last_fresh = true;  // the last correction used a tangent evaluated at its iterate
+  Scalar r(0);  // ‖R‖
+  // R, r (and K if `with_tangent`) at x; false with rep.status set if x is out of the
+  // domain or a value is not finite.
+  const auto evaluate = [&](bool with_tangent) {
+    if (!eval(x, R, with_tangent ? &K : static_cast<Matrix3*>(nullptr), scale)) {
+      rep.status = StepStatus::out_of_domain;
+      return false;
+    }
+    r = R.norm();
+    if (!std::isfinite(static_cast<double>(r)) ||
+        (with_tangent && !std::isfinite(static_cast<double>(K.sum())))) {
+      rep.status = StepStatus::non_finite;
+      return false;
+    }
+    return true;
+  };
   for (int k = 0;; ++k) {
     // Evaluation k; the correction it leads to is a chord step unless `fresh`.
     bool fresh = !reuse || k == 0 || !(last_step <= opt.reuse_tangent * size);
-    if (!eval(x, R, fresh ? &K : static_cast<Matrix3*>(nullptr), scale)) {
-      rep.status = StepStatus::out_of_domain;
-      return rep;
-    }
-    Scalar r = R.norm();
+    if (!evaluate(fresh)) return rep;
     rep.residual = r / (scale + tiny);
-    if (!std::isfinite(static_cast<double>(r)) || (fresh && !std::isfinite(static_cast<double>(K.sum())))) {
-      rep.status = StepStatus::non_finite;
-      return rep;
-    }
     const bool small_residual = r <= opt.residual_tolerance * scale;
     // The predictor itself is accepted only with a zero residual: its O(h³) error is
     // smooth and of one sign from step to step, so accepting it whenever it is below
@@ -167,28 +190,11 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
     if (!fresh && !last_fresh && !(r <= r_prev / Scalar(10))) {
       // A chord step contracted too little: Newton again from here (same x, same R).
       fresh = true;
-      if (!eval(x, R, &K, scale)) {
-        rep.status = StepStatus::out_of_domain;
-        return rep;
-      }
-      if (!std::isfinite(static_cast<double>(K.sum()))) {
-        rep.status = StepStatus::non_finite;
-        return rep;
-      }
+      if (!evaluate(true)) return rep;
     }
-    if (fresh) {
-      // K⁻¹ = adj(K)/det K, the cofactors computed once for both. Singular tangent:
-      // |det K| tiny against the product of its column norms.
-      const Vector3 c0 = K.col(1).cross(K.col(2)), c1 = K.col(2).cross(K.col(0)), c2 = K.col(0).cross(K.col(1));
-      const Scalar det = K.col(0).dot(c0);
-      const Scalar bound = K.col(0).norm() * K.col(1).norm() * K.col(2).norm();
-      if (!(std::abs(det) > Scalar(16) * eps * bound)) {
-        rep.status = StepStatus::singular_tangent;
-        return rep;
-      }
-      K_inv.row(0) = c0.transpose() / det;
-      K_inv.row(1) = c1.transpose() / det;
-      K_inv.row(2) = c2.transpose() / det;
+    if (fresh && !invert_unless_singular(K, K_inv)) {
+      rep.status = StepStatus::singular_tangent;
+      return rep;
     }
     const Vector3 dx = -(K_inv * R);
     x += dx;

@@ -53,6 +53,10 @@
 
 #include "trompo/cases.hpp"
 #include "trompo/composition.hpp"
+#include "trompo/schemes/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/rk4.hpp"
+#include "trompo/schemes/simo.hpp"
 #include "trompo/stepper.hpp"
 
 // The closed forms use Boost.Math's Carlson integrals, so they need Boost too.

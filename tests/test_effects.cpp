@@ -25,20 +25,18 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-// ---- which scheme keeps what (the README table) ------------------------------------------
+// ---- which scheme keeps what: read from the schemes' traits (scheme.hpp) ----------------
+template <class S, class Scene>
+constexpr Keeps kept = S::template keeps<Scene>;
+/// H exact on the free body (every energy-momentum scheme; not RK4).
 template <class S>
-constexpr bool is_implicit = !std::is_same_v<S, RK4>;
+constexpr bool is_implicit = kept<S, FreeScene<double>>.energy;
 /// H exact for potentials linear in Λ (uniform gravity), THEORY §3–4.
 template <class S>
-constexpr bool energy_exact_linear = std::is_same_v<S, SimoKappa> || std::is_same_v<S, SimoCollocation> ||
-                                     std::is_same_v<S, GeradinBauchau> || std::is_same_v<S, GeradinBauchauPaper>;
-/// H exact for a general potential: the two projections of THEORY §3.
-template <class S>
-constexpr bool energy_exact_general = std::is_same_v<S, SimoKappa> || std::is_same_v<S, SimoCollocation>;
+constexpr bool energy_exact_linear = kept<S, HeavyTop<double>>.energy;
 /// π (free body) and μ (gravity) exact: the Simo family and GB [T4], not [T5] (THEORY §4).
 template <class S>
-constexpr bool momentum_exact = std::is_same_v<S, SimoAlpha> || std::is_same_v<S, SimoKappa> ||
-                                std::is_same_v<S, SimoCollocation> || std::is_same_v<S, GeradinBauchau>;
+constexpr bool momentum_exact = kept<S, HeavyTop<double>>.momentum_map && kept<S, FreeScene<double>>.spatial_momentum;
 
 void report(const char* row, const char* scheme, const char* quantity, double value) {
   std::printf("[effects-table] %s | %s | %s = %.2e\n", row, scheme, quantity, value);
@@ -118,6 +116,9 @@ template <class S>
 using TestPotentialH = Potential<S, TestV<S>, TestGradient<S>, TestHessian<S>>;
 TestPotential<double> test_potential() { return {TestV<double>{}, TestGradient<double>{}}; }
 TestPotentialH<double> test_potential_h() { return {TestV<double>{}, TestGradient<double>{}, TestHessian<double>{}}; }
+/// H exact for a general potential: the two projections of THEORY §3.
+template <class S>
+constexpr bool energy_exact_general = kept<S, Scene<double, TestPotential<double>>>.energy;
 
 // ---- runs --------------------------------------------------------------------------------------
 /// n steps of h; `each(before, after)` after every step. Fails the test on a failed step.
@@ -518,20 +519,16 @@ double tangent_error(const SceneT& scene, const State<double>& s, double hh, con
     Vec3 r;
     Mat3 k;
     double sc;
-    if constexpr (std::is_same_v<Scheme, GeradinBauchau> || std::is_same_v<Scheme, GeradinBauchauPaper>) {
-      detail::GBResidual<Scheme, SceneT>{data}(y, r, k, sc);
-    } else {
-      detail::SimoResidual<Scheme, SceneT>{Scheme{}, data}(y, r, k, sc);
-    }
+    Scheme{}.residual(data)(y, r, k, sc);
     return r;
   };
   const Vec3 y = (hh * hh / 2) * data.omega_rate() + offset;  // departure from the rigid rotation
   if constexpr (std::is_same_v<Scheme, GeradinBauchau> || std::is_same_v<Scheme, GeradinBauchauPaper>) {
-    detail::GBResidual<Scheme, SceneT>{data}(Vec3(y / 2), R, K, scale);
+    Scheme{}.residual(data)(Vec3(y / 2), R, K, scale);
     const Mat3 fd = central_jacobian<double>(residual, Vec3(y / 2), 1e-6);
     return (K - fd).norm() / K.norm();
   } else {
-    detail::SimoResidual<Scheme, SceneT>{Scheme{}, data}(y, R, K, scale);
+    Scheme{}.residual(data)(y, R, K, scale);
     const Mat3 fd = central_jacobian<double>(residual, y, 1e-6);
     return (K - fd).norm() / K.norm();
   }

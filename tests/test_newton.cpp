@@ -65,13 +65,8 @@ void residual_only_is_bit_identical(const Scheme& scheme, const SceneT& scene, s
     Mat3 K;
     double scale_full = -1, scale_only = -2;
     bool in_full, in_only;
-    if constexpr (is_gb<Scheme>) {
-      in_full = detail::GBResidual<Scheme, SceneT>(d)(x, R_full, &K, scale_full);
-      in_only = detail::GBResidual<Scheme, SceneT>(d)(x, R_only, nullptr, scale_only);
-    } else {
-      in_full = detail::SimoResidual<Scheme, SceneT>(scheme, d)(x, R_full, &K, scale_full);
-      in_only = detail::SimoResidual<Scheme, SceneT>(scheme, d)(x, R_only, nullptr, scale_only);
-    }
+    in_full = scheme.residual(d)(x, R_full, &K, scale_full);
+    in_only = scheme.residual(d)(x, R_only, nullptr, scale_only);
     REQUIRE(in_full == in_only);
     if (!in_full) continue;
     ++compared;
@@ -96,7 +91,7 @@ Counts count_evaluations(const Scheme& scheme, const cases::Case<SceneT>& c, dou
   Counts k;
   for (int i = 0; i < n; ++i) {
     const detail::StepData<SceneT> d(c.scene, s, h);
-    const detail::SimoResidual<Scheme, SceneT> residual(scheme, d);
+    const auto residual = scheme.residual(d);
     auto counted = [&](const Vec3& x, Vec3& R, Mat3* K, double& scale) {
       ++(K ? k.full : k.residual_only);
       return residual(x, R, K, scale);

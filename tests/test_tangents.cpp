@@ -12,6 +12,7 @@
 
 #include "support/trompo_test.hpp"
 #include "trompo/schemes/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau_paper.hpp"
 #include "trompo/schemes/simo.hpp"
 
 #ifdef TROMPO_HAVE_BOOST
@@ -54,12 +55,7 @@ void residual(const Scheme& scheme, const detail::StepData<Scene>& data, const E
               Eigen::Matrix<typename Scene::Scalar, 3, 1>& R, Eigen::Matrix<typename Scene::Scalar, 3, 3>& K) {
   typename Scene::Scalar scale;
   bool in_domain = true;
-  if constexpr (is_gb<Scheme>) {
-    (void)scheme;
-    in_domain = detail::GBResidual<Scheme, Scene>(data)(x, R, K, scale);
-  } else {
-    in_domain = detail::SimoResidual<Scheme, Scene>(scheme, data)(x, R, K, scale);
-  }
+  in_domain = scheme.residual(data)(x, R, K, scale);
   REQUIRE(in_domain);
 }
 

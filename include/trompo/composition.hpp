@@ -22,9 +22,14 @@
 // composition conserves too. Negative γ_i are steps backward in time, which the base
 // schemes support.
 //
-// Only symmetric bases may be composed to order 4/6: RK4 is rejected at compile time,
-// Simo-α with α ≠ ½ (order 1, not symmetric) at construction. Order 2 is the base scheme
+// Only symmetric bases may be composed to order 4/6: a scheme type whose trait says it is
+// not symmetric (RK4) is rejected at compile time, a scheme whose parameters make it
+// non-symmetric (Simo-α with α ≠ ½: order 1) at construction. Order 2 is the base scheme
 // itself, one step, whatever the scheme.
+//
+// A base scheme with memory (scheme.hpp) gets one memory per sub-step index: sub-step i
+// of a composed step sees what sub-step i of the previous composed step left, since the
+// sub-steps differ in size and sign. The composed stepper's Memory is that array.
 //
 // The order proof also needs the base step to be a smooth function of h. Simo collocation
 // with the closed-form α of [T2] is not, on fast tops: α is the root nearest ½, and where
@@ -39,9 +44,7 @@
 
 #include "trompo/errors.hpp"
 #include "trompo/newton.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/rk4.hpp"
-#include "trompo/schemes/simo.hpp"
+#include "trompo/scheme.hpp"
 #include "trompo/state.hpp"
 #include "trompo/stepper.hpp"
 
@@ -139,21 +142,33 @@ struct CompositionCoefficients {
   }
 };
 
-/// Whether a scheme type is symmetric for every value of its parameters. RK4 never is;
-/// SimoAlpha is only for α = ½, which is checked at run time.
-template <class Scheme>
-inline constexpr bool is_symmetric_scheme_type = !std::is_same_v<Scheme, RK4>;
+namespace detail {
+/// The memory of a composed stepper: one base memory per sub-step index, or nothing.
+template <class BaseMemory, int N>
+struct composed_memory {
+  using type = std::array<BaseMemory, N>;
+};
+template <int N>
+struct composed_memory<NoMemory, N> {
+  using type = NoMemory;
+};
+}  // namespace detail
 
 template <class Scheme, class Scene_>
+  requires SchemeFor<Scheme, Scene_>
 class ComposedStepper {
-  static_assert(is_symmetric_scheme_type<Scheme>,
-                "ComposedStepper: RK4 is not symmetric, so composing it does not raise its order; "
-                "use Stepper<RK4, Scene> (order 4) instead");
+  static_assert(Scheme::symmetric,
+                "ComposedStepper: this scheme is not symmetric (its trait `symmetric` is false), so "
+                "composing it does not raise its order; step it with Stepper<Scheme, Scene> instead");
 
  public:
   using Scene = Scene_;
   using Scalar = typename Scene::Scalar;
   using Base = Stepper<Scheme, Scene>;
+  using BaseMemory = typename Base::Memory;
+  /// One base memory per sub-step index (NoMemory for a memoryless base).
+  using Memory = typename detail::composed_memory<BaseMemory, CompositionCoefficients<Scalar>::max_stages>::type;
+  using TrajectoryType = Trajectory<Scalar, Memory>;
 
   /// `order` is 2 (the base scheme, one step), 4 (triple jump, 3 sub-steps) or 6
   /// (Kahan–Li, 9 sub-steps); anything else throws invalid_input, as does order 4/6 on a
@@ -171,20 +186,37 @@ class ComposedStepper {
                    " with these parameters is not symmetric (Simo-alpha needs alpha = 0.5)");
   }
 
-  /// Advances `state` by h through the sub-steps γ_i h. Same contract as Stepper::step:
-  /// on failure of any sub-step, `state` is untouched and the report carries that
-  /// sub-step's status. `iterations` is the sum over the sub-steps taken, `residual` the
-  /// largest sub-step residual.
+  /// A trajectory starting at `s`, with fresh memory.
+  TrajectoryType start(const State<Scalar>& s) const { return TrajectoryType(s); }
+
+  /// Advances a trajectory by h; state and memory are committed on success only.
+  StepReport<Scalar> step(TrajectoryType& traj, Scalar h) const { return step(traj.state(), traj.memory, h); }
+
+  /// Advances `state` by h (memoryless base schemes).
   StepReport<Scalar> step(State<Scalar>& state, Scalar h) const {
-    if (coefficients_.stages == 1) return base_.step(state, h);
+    static_assert(std::is_same_v<BaseMemory, NoMemory>,
+                  "ComposedStepper::step(State&, h): the base scheme carries memory between steps; step a "
+                  "Trajectory instead (auto traj = stepper.start(state); stepper.step(traj, h))");
+    Memory memory{};
+    return step(state, memory, h);
+  }
+
+  /// Advances `state` by h through the sub-steps γ_i h. Same contract as Stepper::step:
+  /// on failure of any sub-step, `state` and `memory` are untouched and the report carries
+  /// that sub-step's status. `iterations` is the sum over the sub-steps taken, `residual`
+  /// the largest sub-step residual.
+  StepReport<Scalar> step(State<Scalar>& state, Memory& memory, Scalar h) const {
+    if (coefficients_.stages == 1) return base_.step(state, base_memory(memory, 0), h);
     StepReport<Scalar> total;
     if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
       total.status = StepStatus::invalid_step;
       return total;
     }
     State<Scalar> s = state;
+    Memory m = memory;
     for (int i = 0; i < coefficients_.stages; ++i) {
-      const StepReport<Scalar> rep = base_.step(s, coefficients_.gamma[static_cast<std::size_t>(i)] * h);
+      const StepReport<Scalar> rep =
+          base_.step(s, base_memory(m, i), coefficients_.gamma[static_cast<std::size_t>(i)] * h);
       total.iterations += rep.iterations;
       if (rep.residual > total.residual) total.residual = rep.residual;
       if (!rep.ok()) {
@@ -195,6 +227,7 @@ class ComposedStepper {
     // Σγ_i h differs from h by round-off; end the step exactly at t_n + h, as Stepper does.
     s.time = state.time + h;
     state = s;
+    memory = m;
     return total;
   }
 
@@ -205,6 +238,9 @@ class ComposedStepper {
   const CompositionCoefficients<Scalar>& coefficients() const { return coefficients_; }
   /// A composition of a symmetric scheme by symmetric weights is symmetric.
   bool symmetric() const { return base_.symmetric(); }
+  /// What the composition keeps exactly: what its base scheme keeps (every sub-step is
+  /// a base step).
+  Keeps keeps() const { return base_.keeps(); }
 
   const Base& base() const { return base_; }
   const Scheme& scheme() const { return base_.scheme(); }
@@ -213,6 +249,16 @@ class ComposedStepper {
   NewtonOptions<Scalar>& options() { return base_.options(); }
 
  private:
+  /// Sub-step i's memory.
+  static BaseMemory& base_memory(Memory& m, int i) {
+    if constexpr (std::is_same_v<Memory, NoMemory>) {
+      (void)i;
+      return m;
+    } else {
+      return m[static_cast<std::size_t>(i)];
+    }
+  }
+
   Base base_;
   CompositionCoefficients<Scalar> coefficients_;
 };

@@ -30,7 +30,14 @@
 // The observer, if given, is called as observer(const State&) at the start and after
 // each whole interval of the grid (never on sub-steps). Without one the calls are
 // compiled out (`if constexpr`): no cost, no branch.
+//
+// Schemes with memory (scheme.hpp). Pass the stepper's Trajectory (stepper.start(s)) to
+// carry the memory across calls; a failed interval leaves state and memory as they were,
+// and the sub-steps of a recovered interval see the memory in sequence, as the state. A
+// plain State passed with such a stepper starts a fresh trajectory for this call (its
+// memory is dropped at the end).
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <limits>
 #include <type_traits>
@@ -38,6 +45,7 @@
 
 #include "trompo/errors.hpp"
 #include "trompo/newton.hpp"
+#include "trompo/scheme.hpp"
 #include "trompo/state.hpp"
 
 namespace trompo {
@@ -71,11 +79,11 @@ struct IntegrationSummary {
 
 namespace detail {
 
-template <class Stepper>
+template <class Stepper, class StateT>
 struct Integrator {
   using Scalar = typename Stepper::Scalar;
   const Stepper& stepper;
-  State<Scalar>& state;
+  StateT& state;
   IntegrationSummary<Scalar>& sum;
   int max_halvings;
 
@@ -125,18 +133,55 @@ struct Integrator {
 
 }  // namespace detail
 
+namespace detail {
+/// Whether a plain State is integrated with a stepper whose scheme carries memory.
+template <class Stepper, class StateT>
+constexpr bool needs_trajectory() {
+  if constexpr (requires { typename Stepper::Memory; })
+    return std::is_same_v<StateT, State<typename Stepper::Scalar>> &&
+           !std::is_same_v<typename Stepper::Memory, NoMemory>;
+  else
+    return false;
+}
+
+template <class Stepper, class StateT, class Observer>
+IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& stepper, StateT& state,
+                                                             typename Stepper::Scalar t_end,
+                                                             typename Stepper::Scalar h, Observer&& observer,
+                                                             IntegrateOptions options);
+}  // namespace detail
+
 /// Integrates `state` from state.time to t_end with steps h (see the file comment for
 /// the grid, the recovery rule and the observer). Throws invalid_input, before taking
 /// any step, if h is zero or not finite, if t_end is not finite or behind the start
 /// (in the direction of h), if the state is not finite, or if h is below the time
 /// resolution at t_end. Numerical failures never throw: they are in the summary.
-template <class Stepper, class Observer = NoObserver>
-IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper,
-                                                       State<typename Stepper::Scalar>& state,
+template <class Stepper, class StateT, class Observer = NoObserver>
+  requires std::derived_from<StateT, State<typename Stepper::Scalar>>
+IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper, StateT& state,
                                                        typename Stepper::Scalar t_end,
                                                        typename Stepper::Scalar h,
                                                        Observer&& observer = {},
                                                        IntegrateOptions options = {}) {
+  using Scalar = typename Stepper::Scalar;
+  if constexpr (detail::needs_trajectory<Stepper, StateT>()) {
+    // A plain State with a stepper whose scheme has memory: a fresh trajectory for this call.
+    auto traj = stepper.start(state);
+    const IntegrationSummary<Scalar> sum = integrate(stepper, traj, t_end, h, std::forward<Observer>(observer), options);
+    static_cast<State<Scalar>&>(state) = traj.state();
+    return sum;
+  } else {
+    return detail::integrate_steps(stepper, state, t_end, h, std::forward<Observer>(observer), options);
+  }
+}
+
+namespace detail {
+
+template <class Stepper, class StateT, class Observer>
+IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& stepper, StateT& state,
+                                                             typename Stepper::Scalar t_end,
+                                                             typename Stepper::Scalar h, Observer&& observer,
+                                                             IntegrateOptions options) {
   using Scalar = typename Stepper::Scalar;
   using std::abs;
   using std::ceil;
@@ -175,7 +220,7 @@ IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper,
       detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ", far);
   }
 
-  detail::Integrator<Stepper> run{stepper, state, sum, options.max_halvings};
+  Integrator<Stepper, StateT> run{stepper, state, sum, options.max_halvings};
   for (std::int64_t k = 1; k <= n; ++k) {
     // Whole steps of exactly h; the last one is whatever is left to t_end.
     const bool last = k == n;
@@ -187,4 +232,5 @@ IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper,
   return sum;
 }
 
+}  // namespace detail
 }  // namespace trompo

@@ -4,59 +4,88 @@
 //   Stepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, scene);
 //   StepReport<double> rep = stepper.step(state, h);   // h < 0 integrates backward
 //
+// Any type that models SchemeFor<Scheme, Scene> (scheme.hpp) can be stepped; the
+// stepper knows no scheme by name. A scheme with memory is stepped on a Trajectory,
+// which carries the state and the memory together:
+//
+//   auto traj = stepper.start(state);       // fresh memory
+//   stepper.step(traj, h);
+//
 // A step that fails (Newton did not converge, left the domain, took a wrong branch,
-// produced a NaN, or h is 0/non-finite) returns its status and leaves `state` exactly
-// as it was. No heap allocation, no virtual call: everything is fixed-size Eigen.
+// produced a NaN, or h is 0/non-finite) returns its status and leaves the state, and the
+// memory, exactly as they were. No heap allocation, no virtual call.
 #include <cmath>
 #include <limits>
 #include <type_traits>
 
 #include "trompo/newton.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/rk4.hpp"
-#include "trompo/schemes/simo.hpp"
+#include "trompo/scheme.hpp"
 #include "trompo/state.hpp"
 
 namespace trompo {
 
 template <class Scheme, class Scene_>
+  requires SchemeFor<Scheme, Scene_>
 class Stepper {
  public:
   using Scene = Scene_;
   using Scalar = typename Scene::Scalar;
+  using Memory = scheme_memory_t<Scheme, Scene>;
+  /// What this stepper steps: the State itself for a memoryless scheme.
+  using TrajectoryType = Trajectory<Scalar, Memory>;
 
   explicit Stepper(Scheme scheme, Scene scene, NewtonOptions<Scalar> options = {})
       : scheme_(scheme), scene_(std::move(scene)), options_(options) {}
 
-  /// Advances `state` by h. On failure `state` is untouched and the report says why.
+  /// A trajectory starting at `s`, with fresh memory.
+  TrajectoryType start(const State<Scalar>& s) const { return TrajectoryType(s); }
+
+  /// Advances a trajectory by h. On failure state and memory are untouched and the
+  /// report says why.
+  StepReport<Scalar> step(TrajectoryType& traj, Scalar h) const {
+    Memory memory = traj.memory;
+    const StepReport<Scalar> rep = step(traj.state(), memory, h);
+    if (rep.ok()) traj.memory = memory;
+    return rep;
+  }
+
+  /// Advances `state` by h (memoryless schemes). On failure `state` is untouched.
   StepReport<Scalar> step(State<Scalar>& state, Scalar h) const {
+    static_assert(!has_memory_v<Scheme, Scene>,
+                  "Stepper::step(State&, h): this scheme carries memory between steps; step a "
+                  "Trajectory instead (auto traj = stepper.start(state); stepper.step(traj, h))");
+    Memory memory{};
+    return step(state, memory, h);
+  }
+
+  /// The step on an explicit (state, memory) pair: both are committed on success only.
+  /// ComposedStepper and integrate() use it; most callers want step(traj, h).
+  StepReport<Scalar> step(State<Scalar>& state, Memory& memory, Scalar h) const {
     StepReport<Scalar> rep;
     if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
       rep.status = StepStatus::invalid_step;
       return rep;
     }
     State<Scalar> next;
-    if constexpr (std::is_same_v<Scheme, RK4>) {
-      rep = detail::rk4_step(scene_, state, h, next);
-    } else if constexpr (std::is_same_v<Scheme, GeradinBauchau> || std::is_same_v<Scheme, GeradinBauchauPaper>) {
-      rep = detail::gb_step<Scheme>(scene_, state, h, options_, next);
-    } else {
-      rep = detail::simo_step(scheme_, scene_, state, h, options_, next);
-    }
+    Memory next_memory = memory;
+    rep = scheme_.step(scene_, static_cast<const State<Scalar>&>(state), h, options_, next, next_memory);
     // Last line of defence for "no NaN behind ok": whatever a scheme returned, an ok step
     // must give a finite state with a unit quaternion (the fuzzer found RK4 overflowing
     // |q|² to a zero quaternion), else it is reported as non_finite and not committed.
     if (rep.ok() && !committable(next)) rep.status = StepStatus::non_finite;
-    if (rep.ok()) state = next;
+    if (rep.ok()) {
+      state = next;
+      memory = next_memory;
+    }
     return rep;
   }
 
-  /// Whether one step of +h then −h returns to the start (all but RK4 and Simo-α ≠ ½).
-  bool symmetric() const {
-    if constexpr (std::is_same_v<Scheme, RK4>) return false;
-    else if constexpr (std::is_same_v<Scheme, SimoAlpha>) return scheme_.alpha == 0.5;
-    else return true;
-  }
+  /// Whether one step of +h then −h returns to the start (scheme.hpp: trompo::symmetric).
+  bool symmetric() const { return trompo::symmetric(scheme_); }
+  /// The scheme's order of accuracy with its parameters.
+  int order() const { return order_of_accuracy(scheme_); }
+  /// What the scheme keeps exactly on this scene.
+  Keeps keeps() const { return trompo::keeps<Scene>(scheme_); }
 
   const Scheme& scheme() const { return scheme_; }
   const Scene& scene() const { return scene_; }

@@ -6,14 +6,11 @@
 #include <Eigen/Geometry>
 
 #include "trompo/newton.hpp"
+#include "trompo/scheme.hpp"
 #include "trompo/so3.hpp"
 #include "trompo/state.hpp"
 
 namespace trompo {
-
-struct RK4 {
-  static constexpr const char* name = "rk4";
-};
 
 namespace detail {
 
@@ -62,4 +59,21 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
 }
 
 }  // namespace detail
+
+/// Classical RK4 on (q, Ω): order 4, keeps nothing exactly, not symmetric (not composable).
+struct RK4 {
+  static constexpr const char* name = "rk4";
+  static constexpr int order = 4;
+  static constexpr bool symmetric = false;
+  template <class Scene>
+  static constexpr Keeps keeps{};
+
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h, const NewtonOptions<typename Scene::Scalar>&,
+                                          State<typename Scene::Scalar>& out, NoMemory&) const {
+    return detail::rk4_step(scene, in, h, out);
+  }
+};
+
 }  // namespace trompo

@@ -1,0 +1,35 @@
+#pragma once
+// Simo collocation: THEORY [T1] with κ = 1 and α solved at every step so that the energy
+// balance is exact, (17)/[T2] (closed form for potentials linear in Λ, a safeguarded
+// root search for a general V). Keeps H, μ and, on the free body, π; symmetric, order 2.
+// Composed, it reaches orders 4 and 6 only where α(Θ) is smooth (composition.hpp).
+#include "trompo/detail/simo.hpp"
+#include "trompo/scheme.hpp"
+
+namespace trompo {
+
+/// Simo collocation: α solved each step so that the energy balance is exact, [T2].
+struct SimoCollocation {
+  static constexpr const char* name = "simo-collocation";
+  static constexpr int order = 2;
+  static constexpr bool symmetric = true;
+  template <class Scene>
+  static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
+
+  /// One step: Newton on [T1] with α(Θ) from [T2], then (9)–(10).
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h,
+                                          const NewtonOptions<typename Scene::Scalar>& options,
+                                          State<typename Scene::Scalar>& out, NoMemory&) const {
+    return detail::simo_step<detail::SimoVariant::collocation>(0.5, scene, in, h, options, out);
+  }
+
+  /// The residual [T1] and tangent [T3] of a step (for tests and tools).
+  template <class Scene>
+  detail::SimoResidual<detail::SimoVariant::collocation, Scene> residual(const detail::StepData<Scene>& d) const {
+    return {0.5, d};
+  }
+};
+
+}  // namespace trompo

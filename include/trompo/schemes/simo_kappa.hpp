@@ -1,0 +1,35 @@
+#pragma once
+// Simo-κ: THEORY [T1] with α = ½ and the conservative torque scaled by
+// κ = sin(θ/2)/(θ/2), (19); for a general V, κ is the projection that balances the
+// energy exactly (THEORY §3). Keeps H, μ and, on the free body, π; symmetric, order 2:
+// the library's default energy-momentum scheme.
+#include "trompo/detail/simo.hpp"
+#include "trompo/scheme.hpp"
+
+namespace trompo {
+
+/// Simo-κ: α = ½ and the conservative torque scaled by κ(θ), (19); energy exact.
+struct SimoKappa {
+  static constexpr const char* name = "simo-kappa";
+  static constexpr int order = 2;
+  static constexpr bool symmetric = true;
+  template <class Scene>
+  static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
+
+  /// One step: Newton on [T1] with κ from (19), then (9)–(10).
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h,
+                                          const NewtonOptions<typename Scene::Scalar>& options,
+                                          State<typename Scene::Scalar>& out, NoMemory&) const {
+    return detail::simo_step<detail::SimoVariant::kappa>(0.5, scene, in, h, options, out);
+  }
+
+  /// The residual [T1] and tangent [T3] of a step (for tests and tools).
+  template <class Scene>
+  detail::SimoResidual<detail::SimoVariant::kappa, Scene> residual(const detail::StepData<Scene>& d) const {
+    return {0.5, d};
+  }
+};
+
+}  // namespace trompo

@@ -1,0 +1,194 @@
+// The open Scheme concept (scheme.hpp): a scheme defined here, outside include/, with a
+// memory between steps (tests/support/midpoint_scheme.hpp), runs through Stepper,
+// ComposedStepper and integrate(), and keeps the step contract for its memory as for the
+// state: a failed step leaves both bit-identical; sub-steps and composition sub-steps
+// carry it; a trajectory starts it fresh; reset() forgets it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+
+#include "support/midpoint_scheme.hpp"
+#include "support/same_bits.hpp"
+#include "trompo/trompo.hpp"
+
+using namespace trompo;
+using trompo_test::MidpointQ;
+using trompo_test::same_bits;
+using Vec3 = Eigen::Vector3d;
+
+namespace {
+
+using Free = cases::Free<double>;
+using Top = cases::Top<double>;
+using Memory = scheme_memory_t<MidpointQ, Free>;
+
+// ---- the concept, at compile time ------------------------------------------------------
+static_assert(SchemeFor<MidpointQ, Free>);
+static_assert(SchemeFor<MidpointQ, Top>);
+static_assert(has_memory_v<MidpointQ, Free>);
+static_assert(!has_memory_v<SimoKappa, Free>);
+static_assert(std::is_same_v<scheme_memory_t<SimoKappa, Top>, NoMemory>);
+static_assert(SchemeFor<SimoAlpha, Top> && SchemeFor<SimoCollocation, Top> && SchemeFor<SimoKappa, Top> &&
+              SchemeFor<GeradinBauchau, Top> && SchemeFor<GeradinBauchauPaper, Top> && SchemeFor<RK4, Top>);
+/// A type that is not a scheme (no traits, no step) is refused by the concept.
+struct NotAScheme {};
+static_assert(!SchemeFor<NotAScheme, Free>);
+/// A memoryless composed stepper carries no memory either: zero cost.
+static_assert(std::is_same_v<ComposedStepper<SimoKappa, Top>::Memory, NoMemory>);
+static_assert(std::is_same_v<Stepper<SimoKappa, Top>::TrajectoryType, Trajectory<double, NoMemory>>);
+
+bool same_memory(const Memory& a, const Memory& b) { return std::memcmp(&a, &b, sizeof(Memory)) == 0; }
+
+/// FB1 with its spin scaled: |Ω| sets where the fixed point of MidpointQ stops contracting.
+State<double> fb1_state() { return cases::fb1<double>().initial; }
+
+}  // namespace
+
+TEST_CASE("Scheme concept: the traits a test reads come from the scheme", "[scheme]") {
+  const MidpointQ m;
+  CHECK(symmetric(m));
+  CHECK(order_of_accuracy(m) == 2);
+  CHECK(keeps<Free>(m).energy);
+  CHECK_FALSE(keeps<Top>(m).energy);
+  CHECK_FALSE(keeps<Free>(m).momentum_map);
+  // Run-time refinements: Simo-α is symmetric and second order at α = ½ only.
+  CHECK(symmetric(SimoAlpha(0.5)));
+  CHECK_FALSE(symmetric(SimoAlpha(0.3)));
+  CHECK(order_of_accuracy(SimoAlpha(0.3)) == 1);
+  CHECK_FALSE(symmetric(RK4{}));
+  CHECK(order_of_accuracy(RK4{}) == 4);
+  // Per kind of scene: GB keeps H only for potentials linear in Λ; [T5] never keeps μ.
+  CHECK(keeps<Top>(GeradinBauchau{}).energy);
+  CHECK_FALSE(keeps<Top>(GeradinBauchauPaper{}).momentum_map);
+  CHECK(keeps<Free>(SimoKappa{}).spatial_momentum);
+  CHECK_FALSE(keeps<Top>(SimoKappa{}).spatial_momentum);
+}
+
+TEST_CASE("Scheme concept: a user scheme with memory through Stepper keeps H on FB1 and counts its steps",
+          "[scheme][memory]") {
+  const auto c = cases::fb1<double>();
+  const Stepper<MidpointQ, Free> stepper(MidpointQ{}, c.scene);
+  auto traj = stepper.start(c.initial);
+  CHECK(traj.memory.steps == 0);
+  const double H0 = c.scene.energy(traj);
+  double max_dH = 0;
+  for (int i = 0; i < 2000; ++i) {
+    REQUIRE(stepper.step(traj, 0.01).ok());
+    max_dH = std::max(max_dH, std::abs(c.scene.energy(traj) - H0) / H0);
+  }
+  INFO("midpoint on FB1, 2000 steps of 0.01: max |dH/H| = " << max_dH);
+  CHECK(traj.memory.steps == 2000);
+  // The trait says H is kept on the free body: to round-off.
+  REQUIRE(stepper.keeps().energy);
+  CHECK(max_dH <= 1e-13);
+  // A state edited by hand: reset() forgets the memory.
+  traj.omega *= 0.5;
+  traj.reset();
+  CHECK(traj.memory.steps == 0);
+  REQUIRE(stepper.step(traj, 0.01).ok());
+  CHECK(traj.memory.steps == 1);
+}
+
+TEST_CASE("Scheme concept: observed order of the user scheme is its trait (self-convergence on HT1)", "[scheme][order]") {
+  const auto c = cases::ht1<double>();
+  const Stepper<MidpointQ, Top> stepper(MidpointQ{}, c.scene);
+  auto run = [&](double h) {
+    State<double> s = c.initial;
+    const auto sum = integrate(stepper, s, 0.5, h);  // a plain State: a fresh trajectory
+    REQUIRE(sum.ok());
+    return s;
+  };
+  const State<double> s1 = run(0.002), s2 = run(0.001), s3 = run(0.0005);
+  const double e1 = (s1.rotation.matrix() - s2.rotation.matrix()).norm();
+  const double e2 = (s2.rotation.matrix() - s3.rotation.matrix()).norm();
+  const double p = std::log2(e1 / e2);
+  INFO("self-convergence errors " << e1 << ", " << e2 << ": order " << p);
+  CHECK(std::abs(p - MidpointQ::order) <= 0.1);
+}
+
+TEST_CASE("Scheme concept: a failed step leaves state and memory bit-identical", "[scheme][memory][contract]") {
+  const auto c = cases::fb1<double>();
+  const Stepper<MidpointQ, Free> stepper(MidpointQ{}, c.scene);
+  auto traj = stepper.start(c.initial);
+  for (int i = 0; i < 5; ++i) REQUIRE(stepper.step(traj, 0.01).ok());
+  const auto before = traj;
+  // |hΩ| far beyond the fixed point's contraction: the step fails.
+  const double h_bad = 40.0 / c.initial.omega.norm();
+  const StepReport<double> rep = stepper.step(traj, h_bad);
+  REQUIRE_FALSE(rep.ok());
+  INFO(rep.reason());
+  CHECK(same_bits(traj.state(), before.state()));
+  CHECK(same_memory(traj.memory, before.memory));
+  CHECK(traj.memory.steps == 5);
+  // Δt = 0 and NaN are refused before the scheme is called.
+  CHECK(stepper.step(traj, 0.0).status == StepStatus::invalid_step);
+  CHECK(stepper.step(traj, std::nan("")).status == StepStatus::invalid_step);
+  CHECK(same_memory(traj.memory, before.memory));
+}
+
+TEST_CASE("Scheme concept: integrate() carries the memory through recovered sub-steps", "[scheme][memory][integrate]") {
+  const auto c = cases::fb1<double>();
+  const Stepper<MidpointQ, Free> stepper(MidpointQ{}, c.scene);
+  auto traj = stepper.start(c.initial);
+  // h with |hΩ| ≈ 3: every whole step fails and is recovered by halves or quarters.
+  const double h = 3.0 / c.initial.omega.norm();
+  const auto sum = integrate(stepper, traj, 10 * h, h);
+  REQUIRE(sum.ok());
+  INFO("steps " << sum.steps << ", recovered " << sum.recovered << ", sub-steps " << sum.substeps << ", failures "
+                << sum.failures);
+  CHECK(sum.recovered > 0);
+  // Every accepted step, whole or sub-step, advanced the memory once; failed ones did not.
+  CHECK(traj.memory.steps == sum.steps + sum.substeps);
+  // And the memory carries over to the next call.
+  const auto more = integrate(stepper, traj, traj.time + 0.1, 0.01);
+  REQUIRE(more.ok());
+  CHECK(traj.memory.steps == sum.steps + sum.substeps + more.steps + more.substeps);
+  // An interval that cannot be recovered leaves state and memory as the last good step did.
+  auto stuck = stepper.start(c.initial);
+  IntegrateOptions no_recovery;
+  no_recovery.max_halvings = 0;
+  const auto fail = integrate(stepper, stuck, 10 * h, h, NoObserver{}, no_recovery);
+  CHECK_FALSE(fail.ok());
+  CHECK(same_bits(stuck.state(), c.initial));
+  CHECK(stuck.memory.steps == 0);
+}
+
+TEST_CASE("Scheme concept: ComposedStepper gives each sub-step index its own memory", "[scheme][memory][composition]") {
+  const auto c = cases::fb1<double>();
+  const ComposedStepper<MidpointQ, Free> composed(MidpointQ{}, c.scene, Composition::suzuki5);
+  auto traj = composed.start(c.initial);
+  static_assert(std::is_same_v<decltype(traj.memory), std::array<Memory, 9>>);
+  const double H0 = c.scene.energy(traj);
+  for (int i = 0; i < 100; ++i) REQUIRE(composed.step(traj, 0.02).ok());
+  for (int i = 0; i < composed.stages(); ++i) CHECK(traj.memory[static_cast<std::size_t>(i)].steps == 100);
+  for (std::size_t i = static_cast<std::size_t>(composed.stages()); i < traj.memory.size(); ++i)
+    CHECK(traj.memory[i].steps == 0);
+  // Every sub-step is a base step: what the base keeps, the composition keeps.
+  CHECK(composed.keeps().energy);
+  CHECK(std::abs(c.scene.energy(traj) - H0) / H0 <= 1e-13);
+  // A sub-step that fails (the long backward middle one is the first to) leaves all as it was.
+  const auto before = traj;
+  const StepReport<double> rep = composed.step(traj, 12.0 / c.initial.omega.norm());
+  REQUIRE_FALSE(rep.ok());
+  CHECK(same_bits(traj.state(), before.state()));
+  CHECK(std::memcmp(traj.memory.data(), before.memory.data(), sizeof(traj.memory)) == 0);
+}
+
+TEST_CASE("Scheme concept: the composed user scheme reaches order 4 (Suzuki-5, self-convergence on HT1)",
+          "[scheme][order][composition]") {
+  const auto c = cases::ht1<double>();
+  const ComposedStepper<MidpointQ, Top> composed(MidpointQ{}, c.scene, Composition::suzuki5);
+  auto run = [&](double h) {
+    auto traj = composed.start(c.initial);
+    REQUIRE(integrate(composed, traj, 0.5, h).ok());
+    return traj.state();
+  };
+  const State<double> s1 = run(0.01), s2 = run(0.005), s3 = run(0.0025);
+  const double e1 = (s1.rotation.matrix() - s2.rotation.matrix()).norm();
+  const double e2 = (s2.rotation.matrix() - s3.rotation.matrix()).norm();
+  const double p = std::log2(e1 / e2);
+  INFO("Suzuki-5 of the midpoint: self-convergence errors " << e1 << ", " << e2 << ": order " << p);
+  CHECK(std::abs(p - composed.order()) <= 0.2);
+}

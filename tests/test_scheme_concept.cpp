@@ -41,9 +41,6 @@ static_assert(std::is_same_v<Stepper<SimoKappa, Top>::TrajectoryType, Trajectory
 
 bool same_memory(const Memory& a, const Memory& b) { return std::memcmp(&a, &b, sizeof(Memory)) == 0; }
 
-/// FB1 with its spin scaled: |Ω| sets where the fixed point of MidpointQ stops contracting.
-State<double> fb1_state() { return cases::fb1<double>().initial; }
-
 }  // namespace
 
 TEST_CASE("Scheme concept: the traits a test reads come from the scheme", "[scheme]") {

@@ -1,0 +1,468 @@
+#pragma once
+// The machinery of trompo-bench (bench_main.cpp): references, problems, instrumented runs,
+// labels, and the registration of sweep and per-step benchmarks. bench_main.cpp registers
+// the implicit schemes, RK4 and the odeint baselines; every file in bench/methods/ adds a
+// family of methods to the same executable through a MethodFamily (at the end of this
+// file), so that all methods are timed in one run on the same problems.
+
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "trompo/cases.hpp"
+#include "trompo/composition.hpp"
+#include "trompo/schemes/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/rk4.hpp"
+#include "trompo/schemes/simo.hpp"
+#include "trompo/stepper.hpp"
+
+// The closed forms use Boost.Math's Carlson integrals, so they need Boost too.
+#if defined(TROMPO_HAVE_BOOST) && __has_include("trompo/exact/lagrange_top.hpp") && \
+    __has_include("trompo/exact/free_body.hpp")
+#include "trompo/exact/free_body.hpp"
+#include "trompo/exact/lagrange_top.hpp"
+#define TROMPO_BENCH_EXACT 1
+#else
+#define TROMPO_BENCH_EXACT 0
+#endif
+
+#include "odeint_baseline.hpp"
+
+namespace trompo_bench {
+using namespace trompo;
+using V3 = Eigen::Vector3d;
+using M3 = Eigen::Matrix3d;
+using Top = cases::Top<double>;
+using Free = cases::Free<double>;
+
+// ---- references -------------------------------------------------------------------------
+
+struct Reference {
+  M3 rotation;
+  V3 omega;
+  std::string source;
+  std::string check;  ///< how the reference was cross-checked, with the distance found
+};
+
+/// The published solutions at each case's end time (/work/shared/reference, THEORY §8):
+/// closed forms at 40 digits (HT0, HT1, FB1), RKF7(8) in 128-bit floats (HT2); printed
+/// with 17 significant digits, i.e. exact to double precision.
+struct Published {
+  double t;
+  double R[9];
+  double w[3];
+};
+inline const Published published_ht0 = {10.0,
+                                 {0.44138808956316702, 0.84854595362565453, -0.29179842182113701,
+                                  -0.35797409062881863, -0.13167591265389697, -0.92440034858562967,
+                                  -0.82281899882674561, 0.51247557855208266, 0.24563728657811735},
+                                 {-5.4491719004681583, 5.099384179984398, 50.0}};
+inline const Published published_ht1 = {10.0,
+                                 {-0.88035320824679323, 0.47197116595071544, -0.047132231441981876,
+                                  -0.47343918466276825, -0.88042026680667489, 0.026748686358709885,
+                                  -0.028871563092973333, 0.04586253707750627, 0.99853045048079672},
+                                 {-0.030618399441827205, 0.028652974173320288, 50.0}};
+inline const Published published_ht2 = {2.0,
+                                 {-0.48744908223626571, -0.15041682274564176, 0.86009776866477712,
+                                  -0.53793974384415059, -0.72416559163689565, -0.43151480609832443,
+                                  0.68776029561171377, -0.6730222695604441, 0.27207866593284563},
+                                 {0.12223321949739424, 150.0, -5.8556245892054577}};
+inline const Published published_fb1 = {100.0,
+                                 {-0.49160457441821394, -0.010697307057550467, -0.87075284095591858,
+                                  0.010572869065672174, -0.99992416458075367, 0.0063150239272708358,
+                                  -0.87075436079919055, -0.0061018611257821765, 0.49168039460608429},
+                                 {0.011252799694530839, -1.9999933436136818, 0.010434326379235562}};
+
+inline Reference from_published(const Published& p, const std::string& source) {
+  return {Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p.R), V3(p.w[0], p.w[1], p.w[2]), source, ""};
+}
+
+/// ‖ΔΛ‖_F + ‖ΔΩ‖/‖Ω‖ between two references.
+inline double distance(const Reference& a, const Reference& b) {
+  return (a.rotation - b.rotation).norm() + (a.omega - b.omega).norm() / b.omega.norm();
+}
+
+/// A converged composed run: Simo-κ, order 6, n steps to t_end.
+template <class SceneT>
+Reference composed_reference(const cases::Case<SceneT>& c, long n) {
+  const ComposedStepper<SimoKappa, SceneT> stepper(SimoKappa{}, c.scene, 6);
+  State<double> s = c.initial;
+  const double h = c.t_end / double(n);
+  for (long i = 0; i < n; ++i)
+    if (!stepper.step(s, h).ok()) throw std::runtime_error("trompo-bench: the reference run failed");
+  std::ostringstream os;
+  os << "converged composed run (simo-kappa, order 6, h = " << h << ")";
+  return {s.rotation.matrix(), s.omega, os.str(), ""};
+}
+
+inline Reference lagrange_reference(const cases::Case<Top>& c, double A, double C) {
+#if TROMPO_BENCH_EXACT
+  const auto& g = c.scene.effect<UniformGravity<double>>();
+  const exact::LagrangeTop top(A, C, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+  return {top.rotation(c.t_end), top.omega(c.t_end), "exact::LagrangeTop (closed form)", ""};
+#else
+  (void)A;
+  (void)C;
+  return composed_reference(c, 10000);
+#endif
+}
+
+inline Reference free_body_reference(const cases::Case<Free>& c) {
+#if TROMPO_BENCH_EXACT
+  const exact::FreeBody body(c.scene.body().inertia().diagonal(), c.initial.rotation.matrix(), c.initial.omega);
+  return {body.rotation(c.t_end), body.omega(c.t_end), "exact::FreeBody (closed form)", ""};
+#else
+  return composed_reference(c, 20000);
+#endif
+}
+
+// ---- problems ---------------------------------------------------------------------------
+
+/// A geometric grid of step sizes from hi down to lo, ratio 1/√2, snapped so that the end
+/// time is a whole number of steps.
+struct Grid {
+  double hi, lo;
+};
+
+template <class SceneT>
+struct Problem {
+  cases::Case<SceneT> c;
+  Reference ref;
+  double h_step;  ///< representative h for the per-step family
+  Grid o2, o4, o6, rk4, o4s;
+};
+
+inline std::deque<Problem<Top>> tops;    // stable addresses for the registered lambdas
+inline std::deque<Problem<Free>> frees;
+
+inline std::vector<double> grid(const Grid& g, double t_end) {
+  std::vector<double> hs;
+  for (int k = 0;; ++k) {
+    const double h = g.hi * std::pow(2.0, -0.5 * k);
+    if (h < g.lo * (1 - 1e-9)) break;
+    const double n = std::max(1.0, std::round(t_end / h));
+    hs.push_back(t_end / n);
+  }
+  return hs;
+}
+
+// ---- runs --------------------------------------------------------------------------------
+
+template <class SceneT>
+struct Invariants {
+  double H0, mu0;
+  V3 pi0;
+  double max_dH = 0, max_dmu = 0;
+  Invariants(const SceneT& scene, const State<double>& s)
+      : H0(scene.energy(s)), mu0(scene.momentum_map(s)), pi0(scene.spatial_momentum(s)) {}
+  void update(const SceneT& scene, const State<double>& s) {
+    max_dH = std::max(max_dH, std::abs(scene.energy(s) - H0) / std::abs(H0));
+    if constexpr (SceneT::is_free)
+      max_dmu = std::max(max_dmu, (scene.spatial_momentum(s) - pi0).norm() / pi0.norm());
+    else
+      max_dmu = std::max(max_dmu, std::abs(scene.momentum_map(s) - mu0) / std::abs(mu0));
+  }
+};
+
+struct RunResult {
+  State<double> end;
+  long steps = 0;
+  long newton = 0;
+  long rhs = 0;
+  double max_dH = 0, max_dmu = 0;
+  bool ok = true;
+  std::string why;
+};
+
+/// n steps of a trompo stepper (Stepper or ComposedStepper). Instrumented: also tracks
+/// the invariants after every step and counts Newton iterations.
+template <bool Instrumented, class StepperT, class SceneT>
+RunResult run_trompo(const StepperT& stepper, const cases::Case<SceneT>& c, double h, long n) {
+  RunResult r;
+  State<double> s = c.initial;
+  Invariants<SceneT> inv(c.scene, s);
+  for (long i = 0; i < n; ++i) {
+    const StepReport<double> rep = stepper.step(s, h);
+    if (!rep.ok()) {
+      r.ok = false;
+      r.why = rep.reason();
+      break;
+    }
+    if constexpr (Instrumented) {
+      r.newton += rep.iterations;
+      inv.update(c.scene, s);
+    }
+    ++r.steps;
+  }
+  r.end = s;
+  r.max_dH = inv.max_dH;
+  r.max_dmu = inv.max_dmu;
+  return r;
+}
+
+#ifdef TROMPO_HAVE_BOOST
+template <bool Instrumented, class SceneT>
+RunResult run_odeint_rk4(const cases::Case<SceneT>& c, double h, long n) {
+  RunResult r;
+  bench::QuaternionOde<SceneT> ode{&c.scene};
+  bench::OdeState x = bench::to_ode(c.initial);
+  Invariants<SceneT> inv(c.scene, c.initial);
+  bench::odeint_rk4(ode, x, c.initial.time, h, n, [&](const bench::OdeState& y, double t) {
+    if constexpr (Instrumented) inv.update(c.scene, bench::from_ode(y, t));
+  });
+  r.end = bench::from_ode(x, c.initial.time + double(n) * h);
+  r.steps = n;
+  r.rhs = ode.evaluations;
+  r.max_dH = inv.max_dH;
+  r.max_dmu = inv.max_dmu;
+  return r;
+}
+
+template <bool Instrumented, class SceneT>
+RunResult run_odeint_dopri5(const cases::Case<SceneT>& c, double tol) {
+  RunResult r;
+  bench::QuaternionOde<SceneT> ode{&c.scene};
+  bench::OdeState x = bench::to_ode(c.initial);
+  Invariants<SceneT> inv(c.scene, c.initial);
+  r.steps = bench::odeint_dopri5(ode, x, c.initial.time, c.t_end, tol, [&](const bench::OdeState& y, double t) {
+    if constexpr (Instrumented) inv.update(c.scene, bench::from_ode(y, t));
+  });
+  r.end = bench::from_ode(x, c.t_end);
+  r.rhs = ode.evaluations;
+  r.max_dH = inv.max_dH;
+  r.max_dmu = inv.max_dmu;
+  return r;
+}
+#endif
+
+// ---- reporting -----------------------------------------------------------------------------
+
+inline std::string num(double x) {
+  std::ostringstream os;
+  os << std::setprecision(6) << x;
+  return os.str();
+}
+
+/// Sets the counters and label of a sweep benchmark from its instrumented run; false (and
+/// the benchmark marked as an error, its loop skipped) if the run failed.
+template <class SceneT>
+bool report(benchmark::State& st, const Problem<SceneT>& p, const RunResult& r, double h, const std::string& label) {
+  st.SetLabel(label);
+  if (!r.ok) {
+    st.SkipWithError(("step failed at t = " + num(r.end.time) + ": " + r.why).c_str());
+    return false;
+  }
+  const double steps = double(r.steps);
+  st.counters["steps"] = steps;
+  st.counters["h"] = h;
+  st.counters["max_dH"] = r.max_dH;
+  st.counters["max_dmu"] = r.max_dmu;
+  st.counters["err_rot"] = (r.end.rotation.matrix() - p.ref.rotation).norm();
+  st.counters["err_omega"] = (r.end.omega - p.ref.omega).norm() / p.ref.omega.norm();
+  st.counters["newton"] = steps > 0 ? double(r.newton) / steps : 0.0;
+  st.counters["rhs"] = double(r.rhs);
+  return true;
+}
+
+inline std::string label_of(const std::string& case_name, const std::string& method, const std::string& scheme, int order,
+                     double h, double tol = 0, int stages = 1) {
+  std::ostringstream os;
+  os << std::setprecision(10) << "case=" << case_name << ";method=" << method << ";scheme=" << scheme
+     << ";order=" << order << ";h=" << h << ";tol=" << tol << ";stages=" << stages;
+  return os.str();
+}
+
+/// scheme, scheme-o4 (triple jump), scheme-o4s (Suzuki's five steps), scheme-o6 (Kahan–Li).
+inline std::string method_name(const char* scheme, Composition method) {
+  switch (method) {
+    case Composition::base: return scheme;
+    case Composition::triple_jump: return std::string(scheme) + "-o4";
+    case Composition::suzuki5: return std::string(scheme) + "-o4s";
+    case Composition::kahan_li9: return std::string(scheme) + "-o6";
+  }
+  return scheme;
+}
+inline std::string method_name(const char* scheme, int order) { return method_name(scheme, composition_of_order(order)); }
+
+inline std::string h_text(double h) {
+  std::ostringstream os;
+  os << std::scientific << std::setprecision(3) << h;
+  return os.str();
+}
+
+inline constexpr double sweep_min_time = 0.05;
+
+// ---- sweep family ----------------------------------------------------------------------------
+
+/// The number of sub-steps of a stepper's step (1 for a plain Stepper).
+template <class StepperT>
+int stages_of(const StepperT& stepper) {
+  if constexpr (requires { stepper.stages(); }) return stepper.stages();
+  else return 1;
+}
+
+/// Registers sweep/<case>/<method>/h:<h> for every h of the grid: one run to the case's
+/// end time with the stepper that `make(scene)` returns (anything with step(State&, h) and
+/// order(); stages() if it has sub-steps). `scheme` goes into the label.
+template <class SceneT, class MakeStepper>
+void register_sweep_with(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
+                         const Grid& g, MakeStepper make) {
+  for (double h : grid(g, p.c.t_end)) {
+    const std::string name = "sweep/" + std::string(p.c.name) + "/" + method + "/h:" + h_text(h);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, make, h, method, scheme](benchmark::State& st) {
+      const auto stepper = make(p.c.scene);
+      const long n = std::lround(p.c.t_end / h);
+      // The instrumented run first: a configuration that fails is reported, not timed.
+      const RunResult r = run_trompo<true>(stepper, p.c, h, n);
+      if (!report(st, p, r, h, label_of(p.c.name, method, scheme, stepper.order(), h, 0, stages_of(stepper))))
+        return;
+      for (auto _ : st) {
+        RunResult timed = run_trompo<false>(stepper, p.c, h, n);
+        benchmark::DoNotOptimize(timed.end);
+      }
+    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+  }
+}
+
+/// The sweep of a symmetric scheme composed by `composition` (base = the scheme itself).
+template <class Scheme, class SceneT>
+void register_sweep(const Problem<SceneT>& p, Scheme scheme, Composition composition, const Grid& g) {
+  register_sweep_with(p, method_name(Scheme::name, composition), Scheme::name, g,
+                      [scheme, composition](const SceneT& scene) {
+                        return ComposedStepper<Scheme, SceneT>(scheme, scene, composition);
+                      });
+}
+
+template <class SceneT>
+void register_sweep_rk4(const Problem<SceneT>& p) {
+  for (double h : grid(p.rk4, p.c.t_end)) {
+    const std::string name = "sweep/" + std::string(p.c.name) + "/rk4/h:" + h_text(h);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, h](benchmark::State& st) {
+      const Stepper<RK4, SceneT> stepper(RK4{}, p.c.scene);
+      const long n = std::lround(p.c.t_end / h);
+      RunResult r = run_trompo<true>(stepper, p.c, h, n);
+      r.rhs = 4 * r.steps;
+      if (!report(st, p, r, h, label_of(p.c.name, "rk4", "rk4", 4, h))) return;
+      for (auto _ : st) {
+        RunResult timed = run_trompo<false>(stepper, p.c, h, n);
+        benchmark::DoNotOptimize(timed.end);
+      }
+    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+  }
+#ifdef TROMPO_HAVE_BOOST
+  for (double h : grid(p.rk4, p.c.t_end)) {
+    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-rk4/h:" + h_text(h);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, h](benchmark::State& st) {
+      const long n = std::lround(p.c.t_end / h);
+      const RunResult r = run_odeint_rk4<true>(p.c, h, n);
+      if (!report(st, p, r, h, label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, h))) return;
+      for (auto _ : st) {
+        RunResult timed = run_odeint_rk4<false>(p.c, h, n);
+        benchmark::DoNotOptimize(timed.end);
+      }
+    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+  }
+  // dopri5: tolerances 1e-3 … 1e-14, half a decade apart.
+  for (int k = 6; k <= 28; ++k) {
+    const double tol = std::pow(10.0, -0.5 * k);
+    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-dopri5/tol:" + h_text(tol);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, tol](benchmark::State& st) {
+      const RunResult r = run_odeint_dopri5<true>(p.c, tol);
+      const double h_mean = p.c.t_end / double(std::max(1L, r.steps));
+      if (!report(st, p, r, h_mean, label_of(p.c.name, "odeint-dopri5", "odeint-dopri5", 5, h_mean, tol))) return;
+      for (auto _ : st) {
+        RunResult timed = run_odeint_dopri5<false>(p.c, tol);
+        benchmark::DoNotOptimize(timed.end);
+      }
+    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+  }
+#endif
+}
+
+
+// ---- per-step family ---------------------------------------------------------------------------
+
+template <class StepperT, class SceneT>
+void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<SceneT>& p) {
+  const double h = p.h_step;
+  State<double> s = p.c.initial;
+  long newton = 0;
+  for (auto _ : st) {
+    const StepReport<double> rep = stepper.step(s, h);
+    newton += rep.iterations;
+    benchmark::DoNotOptimize(s);
+    if (s.time > p.c.t_end) s = p.c.initial;  // stay on the case's trajectory
+  }
+  st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
+  st.counters["h"] = h;
+}
+
+inline constexpr double step_min_time = 0.25;
+inline constexpr int step_repetitions = 3;
+
+/// Registers step/<case>/<method>: the cost of one step at the problem's h_step, with the
+/// stepper that `make(scene)` returns (as register_sweep_with).
+template <class SceneT, class MakeStepper>
+void register_step_with(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
+                        MakeStepper make) {
+  const std::string name = "step/" + std::string(p.c.name) + "/" + method;
+  benchmark::RegisterBenchmark(name.c_str(), [&p, make, method, scheme](benchmark::State& st) {
+    const auto stepper = make(p.c.scene);
+    step_loop(st, stepper, p);
+    st.counters["substeps"] = stages_of(stepper);
+    st.SetLabel(label_of(p.c.name, method, scheme, stepper.order(), p.h_step, 0, stages_of(stepper)));
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
+}
+
+/// The step of a symmetric scheme composed by `order` (an order 2/4/6 or a Composition).
+template <class Scheme, class SceneT, class Method>
+void register_step(const Problem<SceneT>& p, Scheme scheme, Method order) {
+  register_step_with(p, method_name(Scheme::name, order), Scheme::name, [scheme, order](const SceneT& scene) {
+    return ComposedStepper<Scheme, SceneT>(scheme, scene, order);
+  });
+}
+
+// ---- families of methods from other files ----------------------------------------------------
+
+/// A family of methods that another translation unit of trompo-bench (bench/methods/*.cpp)
+/// adds to the run. Define one at namespace scope there:
+///
+///   const trompo_bench::MethodFamily splitting{"splitting", register_my_steps, register_my_sweeps};
+///
+/// main() calls every family's `steps` after the core per-step benchmarks and its `sweeps`
+/// after the core sweeps; both read the problems from `tops` and `frees` (HT0, HT1, HT2;
+/// FB1), which are set up with their references by then. Either may be null.
+struct MethodFamily {
+  using Registration = void (*)();
+  const char* name;
+  Registration steps;
+  Registration sweeps;
+  MethodFamily(const char* name_, Registration steps_, Registration sweeps_);
+};
+
+/// The families registered so far (a function-local static: safe during static initialisation).
+inline std::vector<const MethodFamily*>& method_families() {
+  static std::vector<const MethodFamily*> families;
+  return families;
+}
+
+inline MethodFamily::MethodFamily(const char* name_, Registration steps_, Registration sweeps_)
+    : name(name_), steps(steps_), sweeps(sweeps_) {
+  method_families().push_back(this);
+}
+
+}  // namespace trompo_bench

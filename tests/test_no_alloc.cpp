@@ -5,7 +5,8 @@
 //    it records a violation in Release builds too (where the plain assert is compiled out).
 // Covered: every scheme on the free body, the heavy top, and scenes with every effect
 // (damping, body and space torques, rotor, a general potential); composed steppers;
-// failing steps; integrate() with sub-stepping recovery.
+// failing steps; integrate() with sub-stepping recovery; a scheme with memory (a Trajectory)
+// through Stepper, ComposedStepper and integrate().
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -27,6 +28,7 @@ inline std::atomic<bool> counting{false};
 
 #include <catch2/catch.hpp>
 
+#include "support/midpoint_scheme.hpp"
 #include "trompo/trompo.hpp"
 
 // ---- the counting global allocation functions ---------------------------------------------
@@ -188,4 +190,29 @@ TEST_CASE("no heap allocation in integrate without an observer, recovery include
           integrate(st, u, 1.0, 0.01, [&](const State<double>& x) { max_H = std::max(max_H, c.scene.energy(x)); });
         }) == 0);
   CHECK(max_H > 0);
+}
+
+TEST_CASE("no heap allocation for a scheme with memory (Stepper, ComposedStepper, integrate)", "[no_alloc][memory]") {
+  using trompo_test::MidpointQ;
+  const auto c = cases::ht1<double>();
+  using Top = cases::Top<double>;
+  const Stepper<MidpointQ, Top> st(MidpointQ{}, c.scene);
+  const ComposedStepper<MidpointQ, Top> st4(MidpointQ{}, c.scene, Composition::suzuki5);
+  auto traj = st.start(c.initial);
+  auto traj4 = st4.start(c.initial);
+  int ok = 0;
+  CHECK(allocations_in([&] {
+          for (int i = 0; i < 50; ++i) ok += st.step(traj, 0.001).ok() + st4.step(traj4, 0.001).ok();
+        }) == 0);
+  CHECK(ok == 100);
+  CHECK(traj.memory.steps == 50);
+  // integrate() with recovery by sub-steps: h too large for the fixed point on FB1.
+  const auto f = cases::fb1<double>();
+  const Stepper<MidpointQ, cases::Free<double>> free_st(MidpointQ{}, f.scene);
+  auto ftraj = free_st.start(f.initial);
+  const double h = 3.0 / f.initial.omega.norm();
+  IntegrationSummary<double> sum;
+  CHECK(allocations_in([&] { sum = integrate(free_st, ftraj, 10 * h, h); }) == 0);
+  CHECK(sum.ok());
+  CHECK(sum.recovered > 0);
 }

@@ -486,19 +486,26 @@ TEST_CASE("exact: FreeBody on degenerate and other inputs", "[exact][free][ode]"
 
 // ---- input checks and the elliptic helpers ----------------------------------------------
 
-TEST_CASE("exact: invalid inputs are rejected", "[exact]") {
+TEST_CASE("exact: invalid inputs throw trompo::invalid_input naming the field and the value", "[exact]") {
+  using Catch::Matchers::Contains;
   const Matrix3d I = Matrix3d::Identity();
   const Vector3d W(0, 0, 1);
-  CHECK_THROWS_AS(LagrangeTop(0, 1, 1, I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, -1, 1, I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, std::nan(""), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, I, W, Vector3d::Zero()), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, 2.0 * I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, -I, W), std::invalid_argument);
+  // The same exception as the rest of the library (errors.hpp), still a std::invalid_argument.
+  CHECK_THROWS_AS(LagrangeTop(0, 1, 1, I, W), trompo::invalid_input);
   CHECK_THROWS_AS(FreeBody(Vector3d(1, 0, 2), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(FreeBody(Vector3d(1, -2, 2), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(FreeBody(Vector3d(1, 2, 3), I, Vector3d(0, std::numeric_limits<double>::infinity(), 0)),
-                  std::invalid_argument);
+  CHECK_THROWS_WITH(LagrangeTop(0, 1, 1, I, W), Contains("LagrangeTop: A") && Contains("got 0"));
+  CHECK_THROWS_WITH(LagrangeTop(1, -1, 1, I, W), Contains("LagrangeTop: C") && Contains("got -1"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, std::nan(""), I, W), Contains("Mgl") && Contains("nan"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, I, W, Vector3d::Zero()), Contains("gamma") && Contains("(0, 0, 0)"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, 2.0 * I, W), Contains("Lambda0 is not a rotation") && Contains("= 3"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, -I, W), Contains("Lambda0 is not a rotation, determinant -1"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, I, Vector3d(0, std::nan(""), 1)), Contains("Omega0") && Contains("nan"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, 0, 2), I, W), Contains("FreeBody: the moments of inertia J") &&
+                                                          Contains("(1, 0, 2)"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, -2, 2), I, W), Contains("(1, -2, 2)"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, 2, 3), I, Vector3d(0, std::numeric_limits<double>::infinity(), 0)),
+                    Contains("FreeBody: Omega0") && Contains("inf"));
+  CHECK_THROWS_AS(FreeBody(Vector3d(1, 2, 3), I * std::nan(""), W), trompo::invalid_input);
 }
 
 TEST_CASE("exact: Jacobi elliptic functions with the complementary parameter", "[exact]") {

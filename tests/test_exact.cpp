@@ -1,4 +1,4 @@
-// Exact reference solutions (trompo::exact::LagrangeTop, FreeBody), THEORY §8:
+// Exact reference solutions (trompo::exact::LagrangeTop, FreeBody), docs/theory.md §8:
 //   1. agreement with the shared reference figures of HT0, HT1, FB1, FB2 (tests/data);
 //   2. agreement with an independent fine integration (odeint Runge–Kutta–Fehlberg 7(8),
 //      controlled, on the quaternion + Ω equations written below) on the standard and
@@ -244,7 +244,7 @@ Errors against_table(const RotFn& L, const OmFn& W, const double (&tab)[N][M]) {
   return e;
 }
 
-// The standard cases (THEORY §8).
+// The standard cases (docs/theory.md §8).
 Problem ht0() { return top_problem(5, 1, 196.2, Rx(0.3), Vector3d(0, 0, 50)); }
 Problem ht1() { return top_problem(5, 1, 20, Rx(0.05), Vector3d(0, 0, 50)); }
 Problem fb1() { return {Vector3d(1, 2, 3), 0.0, Vector3d::UnitZ(), Matrix3d::Identity(), Vector3d(0.01, 2, 0.01)}; }

@@ -1,5 +1,5 @@
 #pragma once
-// A rigid body about its fixed point O (THEORY §1): the inertia J in body axes.
+// A rigid body about its fixed point O (docs/theory.md §1): the inertia J in body axes.
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>

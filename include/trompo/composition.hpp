@@ -1,6 +1,6 @@
 #pragma once
 // ComposedStepper<Scheme, Scene>: order 4 or 6 from a symmetric second-order scheme by
-// symmetric composition (THEORY §6).
+// symmetric composition (docs/theory.md §6).
 //
 //   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, scene, 4);
 //   StepReport<double> rep = stepper.step(state, h);   // three sub-steps γ_i h

@@ -1,7 +1,7 @@
 #pragma once
 // The step report and the 3×3 Newton solver shared by the implicit schemes.
 //
-// Convergence is judged on both the correction and the residual (STYLE item 8):
+// Convergence is judged on both the correction and the residual:
 // an iterate is accepted when ‖R‖ ≤ residual_tolerance·scale and the last correction
 // ‖δ‖ ≤ step_tolerance·(size of the increment). Iterations are capped; the tangent is
 // checked for singularity; non-finite values stop the solve. Nothing here throws.
@@ -15,7 +15,7 @@ namespace trompo {
 enum class StepStatus {
   ok,
   not_converged,     ///< the iteration cap was reached
-  singular_tangent,  ///< the Newton tangent lost rank (e.g. the fold of THEORY §9)
+  singular_tangent,  ///< the Newton tangent lost rank (e.g. the fold of docs/theory.md §9)
   out_of_domain,     ///< GB: |e| ≥ 1, an increment at or beyond π
   wrong_branch,      ///< converged to an implausible increment (see NewtonOptions)
   non_finite,        ///< a NaN or infinity appeared
@@ -47,7 +47,7 @@ struct StepReport {
 
 /// Newton controls. The defaults reach round-off in 2–4 iterations at moderate h.
 ///
-/// Branch rule (THEORY §9): at large h the implicit equations have several roots; the
+/// Branch rule (docs/theory.md §9): at large h the implicit equations have several roots; the
 /// step must stay on the one that continues the h → 0 solution. A converged increment
 /// is reported as wrong_branch rather than silently taken when
 ///  - its rotation angle is max_increment or more (near or past π), or
@@ -105,7 +105,7 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// small near the root but only linearly; when the residual did not fall by 10× over a
 /// chord step, the tangent is re-evaluated at x_k and the iteration is Newton again.
 ///
-/// Acceptance. As before (STYLE item 8): ‖R‖ ≤ residual_tolerance·scale after a Newton
+/// Acceptance. As before: ‖R‖ ≤ residual_tolerance·scale after a Newton
 /// correction ≤ step_tolerance·x_scale (its remainder is quadratic, far below
 /// round-off). And, without a confirming evaluation, by the contraction estimate: when
 /// two successive corrections are of the same kind (Newton after Newton, or chord after

@@ -1,5 +1,5 @@
 #pragma once
-// SO3<Scalar>: rotations of 3-space (THEORY §2), stored as a unit quaternion.
+// SO3<Scalar>: rotations of 3-space (docs/theory.md §2), stored as a unit quaternion.
 //
 // Names follow Sophus: static exp/hat/vee, member log/inverse/matrix. Added for the
 // integrators: the right tangent T(x) of exp and its inverse, and exp_matrix(), the
@@ -77,7 +77,7 @@ class SO3 {
     return Matrix3::Identity() + a * hat(x) + b * hat_squared(x);
   }
 
-  /// Right tangent T(x) = I − ((1−cos θ)/θ²) x̂ + ((θ − sin θ)/θ³) x̂² (THEORY §2):
+  /// Right tangent T(x) = I − ((1−cos θ)/θ²) x̂ + ((θ − sin θ)/θ³) x̂² (docs/theory.md §2):
   /// exp((x+δ)^) = exp(x̂) exp((T(x)δ)^) + O(δ²). Singular at θ = 2π.
   static Matrix3 right_tangent(const Vector3& x) {
     const Scalar theta = x.norm();

@@ -1,5 +1,5 @@
 #pragma once
-// External torques given as functions of time, taken at the mid time t_{n+½} (THEORY §5).
+// External torques given as functions of time, taken at the mid time t_{n+½} (docs/theory.md §5).
 //
 //   auto f = [](double t) { return Eigen::Vector3d(0.1 * std::sin(t), 0, 0); };
 //   Scene<double, BodyTorque<double, decltype(f)>> scene(body, BodyTorque<double, decltype(f)>(f));

@@ -1,5 +1,5 @@
 #pragma once
-// A general conservative potential V(Λ) given by the user (THEORY §1, §3).
+// A general conservative potential V(Λ) given by the user (docs/theory.md §1, §3).
 //
 //   // V = k (γ·ΛE)², with body gradient g = 2k (γ·ΛE) E × Λᵀγ
 //   auto V = [=](const Eigen::Matrix3d& L) { const double s = up.dot(L * E); return k * s * s; };

@@ -15,7 +15,7 @@ class UniformGravity {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   using kind = potential_kind;
-  /// V is linear in Λ, so f(ξ) = V(Λ_n exp(ξΘ̂)) = A + B cos ξθ + C sin ξθ (THEORY [T2]).
+  /// V is linear in Λ, so f(ξ) = V(Λ_n exp(ξΘ̂)) = A + B cos ξθ + C sin ξθ ([T2]).
   static constexpr bool linear_in_rotation = true;
 
   /// Mgl = M g l (any finite value; 0 still costs the arithmetic: a free body is a scene

@@ -1,5 +1,5 @@
 #pragma once
-// Viscous damping: the body torque T = −c Ω, taken at the step's mid velocity (THEORY §5).
+// Viscous damping: the body torque T = −c Ω, taken at the step's mid velocity (docs/theory.md §5).
 //
 //   Scene<double, ViscousDamping<double>> scene(body, ViscousDamping<double>(0.1));
 //

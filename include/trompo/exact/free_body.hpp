@@ -1,5 +1,5 @@
 #pragma once
-// Exact solution of the torque-free rigid body (THEORY §1, §8: FB1, FB2).
+// Exact solution of the torque-free rigid body (docs/theory.md §1, §8: FB1, FB2).
 //
 //   dΛ/dt = Λ Ω̂,   J dΩ/dt + Ω × JΩ = 0,   J = diag(J1, J2, J3) about the centre of mass
 //   (or a fixed point). Conserved: π = ΛJΩ (spatial momentum), 2T = Ω·JΩ, G = |π|.

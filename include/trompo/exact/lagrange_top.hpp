@@ -1,5 +1,5 @@
 #pragma once
-// Exact solution of the Lagrange top (THEORY §1, §8: HT0, HT1).
+// Exact solution of the Lagrange top (docs/theory.md §1, §8: HT0, HT1).
 //
 // Symmetric heavy top about a fixed point O: J = diag(A, A, C) in body axes, centre of
 // mass on body axis 3 (E = e3), V = Mgl γ·ΛE, γ the spatial unit "up" vector:
@@ -24,7 +24,7 @@
 // precession (k → 0), the sleeping top, a top at rest upright or hanging and the plane
 // pendulum are all handled by the same formulas. Ω is recovered from q and q̇ = ½ q ⊗ (0, Ω).
 //
-// Pitfalls handled (THEORY §8): modulus vs parameter (we carry m = k² AND 1 − m), amplitude
+// Pitfalls handled (docs/theory.md §8): modulus vs parameter (we carry m = k² AND 1 − m), amplitude
 // unwrapped across periods (2jK and 2j Π(n|m) added for τ = 2Kj + r), roots sorted by
 // construction (bracketed, safeguarded Newton).
 #include <Eigen/Core>

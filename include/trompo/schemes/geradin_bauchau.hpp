@@ -1,5 +1,5 @@
 #pragma once
-// Géradin–Bauchau, momentum-consistent half-rotation form, THEORY [T4]: Newton on the
+// Géradin–Bauchau, momentum-consistent half-rotation form, [T4]: Newton on the
 // vector part e of the increment's quaternion, the torques at Λ_{n+½} in the mid frame.
 // Keeps μ, and π on the free body; H exactly for potentials linear in Λ (uniform
 // gravity), not for a general V (the mid-point torque is not its discrete gradient).

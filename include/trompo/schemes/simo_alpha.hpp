@@ -1,5 +1,5 @@
 #pragma once
-// Simo-α: the midpoint family with the conservative torque at Λ_{n+α}, THEORY [T1] with
+// Simo-α: the midpoint family with the conservative torque at Λ_{n+α}, [T1] with
 // κ = 1 and α fixed in [0, 1]. α = ½ is Simo–Wong's midpoint rule: symmetric, order 2.
 // Keeps μ exactly (the torque of an axisymmetric load has no γ component at any α), and
 // on the free body H and π too (the load term vanishes and every α is the midpoint).

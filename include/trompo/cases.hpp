@@ -15,18 +15,27 @@
 
 namespace trompo::cases {
 
+/// A standard case: a scene, its initial state and its end time (docs/theory.md §7–8).
 template <class SceneT_>
 struct Case {
+  /// The scene type (Top or Free).
   using SceneT = SceneT_;
+  /// The scalar type of the scene.
   using Scalar = typename SceneT::Scalar;
+  /// "ht0", "ht1", "ht2", "fb1" or "fb2".
   const char* name;
+  /// The body and its effects.
   SceneT scene;
+  /// The initial state at t = 0.
   State<Scalar> initial;
+  /// The end time of the case.
   Scalar t_end;
 };
 
+/// The scene of the heavy-top cases: a body under uniform gravity.
 template <class Scalar>
 using Top = Scene<Scalar, UniformGravity<Scalar>>;
+/// The scene of the free-body cases: no effects.
 template <class Scalar>
 using Free = Scene<Scalar>;
 

@@ -73,7 +73,9 @@ struct IntegrationSummary {
   StepStatus last_failure = StepStatus::ok;  ///< the last failure seen, even if recovered
   Scalar time = Scalar(0);        ///< the time reached (t_end when ok)
 
+  /// True when the integration reached t_end.
   bool ok() const { return status == StepStatus::ok; }
+  /// The failure that stopped it, as text ("ok" when none).
   const char* reason() const { return to_string(status); }
 };
 

@@ -12,7 +12,9 @@
 
 namespace trompo {
 
+/// The outcome of a step: ok, or why it failed (the state is then unchanged).
 enum class StepStatus {
+  /// the step was taken
   ok,
   not_converged,     ///< the iteration cap was reached
   singular_tangent,  ///< the Newton tangent lost rank (e.g. the fold of docs/theory.md §9)
@@ -22,6 +24,7 @@ enum class StepStatus {
   invalid_step       ///< Δt zero or non-finite
 };
 
+/// The status as text: "ok", or a short reason ("Newton tangent is singular", …).
 inline const char* to_string(StepStatus s) {
   switch (s) {
     case StepStatus::ok: return "ok";
@@ -38,10 +41,13 @@ inline const char* to_string(StepStatus s) {
 /// What a step did. On any status but ok the state was left exactly as it was.
 template <class Scalar>
 struct StepReport {
+  /// ok, or why the step failed.
   StepStatus status = StepStatus::ok;
   int iterations = 0;           ///< Newton iterations (linear solves); 0 for explicit schemes
   Scalar residual = Scalar(0);  ///< final ‖R‖ / scale
+  /// True when the step succeeded.
   bool ok() const { return status == StepStatus::ok; }
+  /// The status as text.
   const char* reason() const { return to_string(status); }
 };
 
@@ -60,10 +66,15 @@ struct StepReport {
 ///    disagreed with continuation in h, for Simo-α, Simo-κ and GB.)
 template <class Scalar>
 struct NewtonOptions {
+  /// Newton iterations before a step is reported not_converged.
   int max_iterations = 25;
+  /// Acceptance: the residual, relative to its natural scale.
   Scalar residual_tolerance = Scalar(64) * std::numeric_limits<Scalar>::epsilon();
+  /// Acceptance: the last correction, relative to the increment.
   Scalar step_tolerance = std::sqrt(std::numeric_limits<Scalar>::epsilon());
+  /// Branch rule: the largest increment angle accepted (0.999π).
   Scalar max_increment = Scalar(0.999) * Scalar(3.14159265358979323846264338327950288L);
+  /// Branch rule: the largest distance of the root from the predictor (rad).
   Scalar max_correction = Scalar(1);
   /// Simplified Newton: the tangent is reused while the last correction is at most this
   /// fraction of the increment's size, and re-evaluated when a reused one contracts the

@@ -36,26 +36,37 @@ namespace trompo {
 /// Marks a Potential without a Hessian callable (central differences of g are used).
 struct NoHessian {};
 
+/// A general conservative potential V(Λ), given by callables: V(Λ), its body gradient g(Λ)
+/// (dV = g·w for Λ exp(ŵ)) and optionally its Hessian ∂g/∂w (else central differences of g).
+/// Build it with make_potential(); docs/theory.md §3, §5.
 template <class Scalar_, class V, class G, class H = NoHessian>
 class Potential {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// A conservative effect: enters H (effect.hpp).
   using kind = potential_kind;
   /// A general V: the closed forms of (19) and [T2] do not hold (schemes/simo.hpp).
   static constexpr bool linear_in_rotation = false;
+  /// Whether a Hessian callable was given.
   static constexpr bool has_hessian = !std::is_same_v<H, NoHessian>;
 
   static_assert(std::is_invocable_v<const V&, const Matrix3&>, "Potential: V must be callable as V(Λ)");
   static_assert(std::is_invocable_v<const G&, const Matrix3&>, "Potential: g must be callable as g(Λ)");
 
+  /// From the callables V(Λ), g(Λ) and, optionally, the Hessian.
   Potential(V v, G g, H hess = H{}) : v_(std::move(v)), g_(std::move(g)), h_(std::move(hess)) {}
 
   /// Λ_n, the start of the step; the potential is evaluated at Λ_n R.
   struct Cache {
+    /// Λ_n.
     Matrix3 Lambda_n;
   };
+  /// Keeps Λ_n for the step.
   Cache cache(const Matrix3& Lambda_n, Scalar /*t_mid*/) const { return {Lambda_n}; }
 
   /// V(Λ_n R)

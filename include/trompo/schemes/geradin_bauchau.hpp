@@ -11,9 +11,13 @@ namespace trompo {
 
 /// Géradin–Bauchau, momentum-consistent half-rotation form [T4].
 struct GeradinBauchau {
+  /// "geradin-bauchau".
   static constexpr const char* name = "geradin-bauchau";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H (potentials linear in Λ), μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{
       .energy = Scene::potentials_linear, .momentum_map = true, .spatial_momentum = Scene::is_free};

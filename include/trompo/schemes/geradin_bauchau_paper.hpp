@@ -9,9 +9,13 @@ namespace trompo {
 
 /// The paper's printed eq. (44), [T5]: energy exact, momentum map drifts.
 struct GeradinBauchauPaper {
+  /// "geradin-bauchau-paper".
   static constexpr const char* name = "geradin-bauchau-paper";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H only (potentials linear in Λ); μ and π drift.
   template <class Scene>
   static constexpr Keeps keeps{.energy = Scene::potentials_linear};
 

@@ -10,9 +10,13 @@ namespace trompo {
 
 /// Simo collocation: α solved each step so that the energy balance is exact, [T2].
 struct SimoCollocation {
+  /// "simo-collocation".
   static constexpr const char* name = "simo-collocation";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H, μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
 

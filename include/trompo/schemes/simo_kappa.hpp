@@ -10,9 +10,13 @@ namespace trompo {
 
 /// Simo-κ: α = ½ and the conservative torque scaled by κ(θ), (19); energy exact.
 struct SimoKappa {
+  /// "simo-kappa".
   static constexpr const char* name = "simo-kappa";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H, μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
 

@@ -1,5 +1,5 @@
 // Scenes and effects (docs/theory.md §1, §3, §5): one test per row of the invariants table in
-// README "Scenes and effects", run for every scheme; the effects' Jacobians and every
+// docs/scenes.md, run for every scheme; the effects' Jacobians and every
 // scheme's tangent against central differences.
 //
 // Each row prints its measured figure per scheme as

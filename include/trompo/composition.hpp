@@ -15,8 +15,8 @@
 // Which order-4 set to use: the triple jump is the cheapest per step, but its middle
 // step −1.70h is long and backward, and its error constant is large. Suzuki's five steps
 // (four of 0.41h, one of −0.66h) cost 5/3 as much per step and, measured on HT1 to
-// t = 10, had a 50–800× smaller attitude error at the same h (README "What accuracy
-// costs"): for a given accuracy it is the cheaper of the two.
+// t = 10, had a 50–800× smaller attitude error at the same h (docs/accuracy.md):
+// for a given accuracy it is the cheaper of the two.
 // Every sub-step is a step of the base scheme, so whatever it conserves exactly (H and μ
 // for Simo-κ, collocation and Géradin–Bauchau; μ for Simo-α ½; π for the free body) the
 // composition conserves too. Negative γ_i are steps backward in time, which the base

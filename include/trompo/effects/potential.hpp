@@ -19,7 +19,7 @@
 // root [T2] do not apply: SimoKappa projects with κ = (V(Λ_{n+1}) − V(Λ_n))/f′(½) and
 // SimoCollocation solves f′(α) = f(1) − f(0) for α numerically (schemes/simo.hpp); both
 // keep H exact. Géradin–Bauchau's mid-point torque does not: its energy error is O(h³)
-// per step (measured in tests/test_effects.cpp, README "Scenes and effects").
+// per step (measured in tests/test_effects.cpp, docs/scenes.md).
 //
 // The callables are template parameters stored by value: no std::function, no allocation.
 #include <Eigen/Core>

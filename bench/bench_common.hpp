@@ -58,7 +58,7 @@ struct Reference {
   std::string check;  ///< how the reference was cross-checked, with the distance found
 };
 
-/// The published solutions at each case's end time (/work/shared/reference, THEORY §8):
+/// The published solutions at each case's end time (docs/theory.md §8):
 /// closed forms at 40 digits (HT0, HT1, FB1), RKF7(8) in 128-bit floats (HT2); printed
 /// with 17 significant digits, i.e. exact to double precision.
 struct Published {

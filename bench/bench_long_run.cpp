@@ -1,5 +1,5 @@
 // trompo-bench-long-run: 10⁷ steps of HT1 and FB1 with Simo-κ and Géradin–Bauchau,
-// reporting the final and the largest |ΔH/H|, |Δμ/μ| and ‖ΛᵀΛ − I‖ (THEORY §9: H and μ
+// reporting the final and the largest |ΔH/H|, |Δμ/μ| and ‖ΛᵀΛ − I‖ (docs/theory.md §9: H and μ
 // should wander like √N·ε, not drift like N·ε; target ≤ 1e-11 for each).
 //
 //   trompo-bench-long-run                 # 10⁷ steps per run (about a minute per run)

@@ -1,4 +1,4 @@
-// trompo-bench: what accuracy costs in time (README "What accuracy costs").
+// trompo-bench: what accuracy costs in time (docs/accuracy.md).
 //
 // Two Google Benchmark families, JSON out with --benchmark_out=FILE:
 //

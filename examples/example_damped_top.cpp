@@ -1,5 +1,5 @@
 // A damped top: the heavy top of HT1's shape (J = diag(5, 5, 1), Mgl = 20, E = γ = e3),
-// tilted 0.3 rad and spun at 50 rad/s, with viscous damping T = −cΩ, c = 0.5 (THEORY §5).
+// tilted 0.3 rad and spun at 50 rad/s, with viscous damping T = −cΩ, c = 0.5 (docs/theory.md §5).
 // The damping torque takes energy out at the rate Ω·T = −c|Ω|², so H decays; the spin
 // about the symmetry axis decays as Ω3 ≈ Ω3(0) e^{−ct/J3} (the gravity torque has no e3
 // component), and without its gyroscopic stiffness the top falls and ends hanging.

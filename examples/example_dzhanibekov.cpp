@@ -1,4 +1,4 @@
-// The Dzhanibekov effect (THEORY §8, case FB1): a free body spun about its intermediate
+// The Dzhanibekov effect (docs/theory.md §8, case FB1): a free body spun about its intermediate
 // principal axis does not keep spinning about it. J = diag(1, 2, 3), Ω0 = (0.01, 2, 0.01):
 // every so often the body turns over, Ω2 changing sign, while the spatial momentum π and
 // the energy stay fixed. The motion is periodic in the body: Euler's equations are solved

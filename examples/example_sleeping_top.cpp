@@ -1,7 +1,7 @@
 // The sleeping top: a symmetric heavy top spinning upright about its vertical symmetry
 // axis. J = diag(5, 5, 1) about the tip, Mgl = 20, E = γ = e3 (HT1's top).
 //  * Exactly upright it stays upright: the gravity torque E × Λᵀ(−Mglγ) vanishes, and the
-//    step must handle ρ = 0 of THEORY [T2] (collocation's α has no preferred value) and
+//    step must handle ρ = 0 of [T2] (collocation's α has no preferred value) and
 //    keep the spin Ω3 and H exactly.
 //  * Slightly tilted, it stays up only if it spins fast enough: upright rotation is stable
 //    when J3²ω3² > 4 Mgl J1 (the Maxwell–Klein condition), here ω3 > ω_c = 20 rad/s. At

@@ -1,7 +1,7 @@
 // trompo-invariants: per scheme, on HT1 (t = 10) and HT2 (t = 2) at h = 0.001 and 0.005,
 // the max |ΔH/H| and |Δμ/μ| over the run, the mean Newton iterations per step, the end
 // attitude error ‖Λ − Λref‖_F, and the observed order log(err(5h)/err(h))/log 5.
-// Λref: the closed-form Lagrange top (HT1), the published 128-bit solution (HT2, THEORY §8).
+// Λref: the closed-form Lagrange top (HT1), the published 128-bit solution (HT2, docs/theory.md §8).
 //
 //   build/…/examples/trompo-invariants
 #include <cmath>

@@ -34,7 +34,7 @@ using M3 = Eigen::Matrix3d;
 
 constexpr const char* kUsage =
     "usage: trompo-simulate [options]\n"
-    "  --case ht0|ht1|ht2|fb1|fb2   preset from THEORY 7-8 (other flags override it)\n"
+    "  --case ht0|ht1|ht2|fb1|fb2   preset from docs/theory.md §7-8 (other flags override it)\n"
     "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact\n"
     "  --alpha A                    simo-alpha only (default 0.5)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
@@ -107,7 +107,7 @@ V3 parse_vector(const std::string& flag, const std::string& text) {
   return V3(v[0], v[1], v[2]);
 }
 
-/// Presets (THEORY 7-8). dt defaults: the finest h the theory names for the case.
+/// Presets (docs/theory.md §7-8). dt defaults: the finest h the theory names for the case.
 void apply_case(const std::string& name, Config& c) {
   auto from = [&](const auto& preset, double dt) {
     c.inertia = preset.scene.body().inertia();
@@ -295,7 +295,7 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, std::
   return 0;
 }
 
-/// The closed form (THEORY §8) on the same grid: the Lagrange top (J diagonal with
+/// The closed form (docs/theory.md §8) on the same grid: the Lagrange top (J diagonal with
 /// J11 = J22, centre of mass on body axis 3) or the torque-free body (J diagonal).
 int run_exact(const Config& c, const trompo::RigidBody<double>& body, const trompo::State<double>& s0, std::FILE* out) {
   using namespace trompo;

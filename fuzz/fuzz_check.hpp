@@ -3,7 +3,7 @@
 // the libFuzzer target (fuzz/fuzz_step.cpp) and the corpus replay test
 // (tests/test_fuzz_corpus.cpp), which compiles it without libFuzzer.
 //
-// The contract (README "Robustness"):
+// The contract (docs/robustness.md):
 //  - constructors either build a valid object or throw trompo::invalid_input (no other
 //    exception, no crash, no undefined behaviour);
 //  - Stepper::step never throws; with status ok the new state is finite, its quaternion

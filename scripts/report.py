@@ -9,6 +9,9 @@ Writes REPORT_DIR/report.md, sweep.csv, step.csv, frontier.csv, attitude_only.cs
        work_precision.png, frontier.png, energy_vs_h.png, newton_vs_h.png,
        energy_over_time.png
 
+With TROMPO_UPDATE_DOCS=1 in the environment it also rewrites the generated block at the
+end of docs/accuracy.md (between the BEGIN/END report.py markers) with report.md's tables.
+
 Uses only the standard library, numpy and matplotlib (Debian's python3-matplotlib).
 """
 import csv
@@ -566,6 +569,29 @@ def read_machine(report_dir):
     return out
 
 
+DOCS_ACCURACY = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "docs", "accuracy.md")
+DOCS_BEGIN = "<!-- BEGIN report.py tables"
+DOCS_END = "<!-- END report.py tables -->"
+
+
+def update_docs(report_dir, path=DOCS_ACCURACY):
+    """Replaces the generated block of docs/accuracy.md by report.md, headings one level down."""
+    with open(os.path.join(report_dir, "report.md")) as f:
+        lines = f.read().splitlines()
+    body = []
+    for line in lines[1:]:  # the report's own title is the section heading of the docs page
+        body.append("#" + line if line.startswith("#") else line)
+    with open(path) as f:
+        doc = f.read()
+    b = doc.index(DOCS_BEGIN)
+    b = doc.index("\n", b) + 1  # keep the BEGIN marker line
+    e = doc.index(DOCS_END, b)
+    doc = doc[:b] + "\n".join(body).strip("\n") + "\n" + doc[e:]
+    with open(path, "w") as f:
+        f.write(doc)
+    return os.path.normpath(path)
+
+
 def main():
     report_dir = sys.argv[1] if len(sys.argv) > 1 else "report"
     context, sweep, steps = load(report_dir)
@@ -596,6 +622,8 @@ def main():
             parts.append(f"{key} {fmt(r['cpu_ms'], 3)} ms [{config_text(r)}]" if r else f"{key}: not reached")
         print(f"frontier {case}: " + "; ".join(parts))
     print(f"wrote {report_dir}/report.md and plots")
+    if os.environ.get("TROMPO_UPDATE_DOCS", "0") == "1":
+        print(f"updated the generated tables of {update_docs(report_dir)}")
 
 
 if __name__ == "__main__":

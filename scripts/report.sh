@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# What accuracy costs: the README's main-job command (README "What accuracy costs").
+# What accuracy costs: the README's main-job command (docs/accuracy.md).
 #   1. install missing Debian packages (python3-matplotlib for the plots)
 #   2. build trompo-bench in Release (build/report)
-#   3. run it: per-step costs and the Δt sweep (JSON), then the long-run energy series (CSV)
+#   3. run it: per-step costs and the Δt sweep (JSON), then the long-run energy series (CSV);
+#      one progress line per finished benchmark (count of total, elapsed time, case and method)
 #   4. /usr/bin/python3 scripts/report.py: report/report.md, *.csv, *.png
 # About 4–5 minutes on 2 cores. Run it on a quiet machine: the timings are CPU times of a
 # single thread, but a busy machine still inflates them (caches, frequency).
 # Usage: scripts/report.sh [extra trompo-bench flags, e.g. --benchmark_filter=ht1]
-#        TROMPO_UPDATE_DOCS=1 scripts/report.sh   also copies the plots to docs/img/
+#        TROMPO_UPDATE_DOCS=1 scripts/report.sh   also copies the plots to docs/img/ and
+#        rewrites the generated tables at the end of docs/accuracy.md
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=report
@@ -20,12 +22,35 @@ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTROMPO_BUILD_TESTS=OFF -DTRO
   -DTROMPO_BUILD_BENCH=ON >/dev/null
 cmake --build "$build" --target trompo-bench -j"$(nproc)"
 
+# Copies Google Benchmark's console output (stdin) to the file $1, unchanged, and prints one
+# line per finished benchmark: [done/total] elapsed, kind (step/sweep), case, method, h.
+# Repetitions and their aggregates (_mean, _median, _stddev, _cv) count once.
+progress() {
+  local file=$1 total=$2 done=0 last="" line name shown
+  exec 3>"$file"
+  while IFS= read -r line; do
+    printf '%s\n' "$line" >&3
+    name=${line%% *}
+    case $name in step/* | sweep/*) ;; *) continue ;; esac
+    for suffix in _mean _median _stddev _cv; do name=${name%"$suffix"}; done
+    [ "$name" = "$last" ] && continue
+    last=$name
+    done=$((done + 1))
+    shown=${name%%/min_time:*}
+    shown=${shown%%/repeats:*}
+    printf '   [%*d/%d] %4d s  %s\n' "${#total}" "$done" "$total" "$((SECONDS - start_s))" "${shown//\// }"
+  done
+  exec 3>&-
+}
+
 mkdir -p "$out"
 lscpu >"$out/machine.txt" 2>/dev/null || true
 start=$(date +%s)
-echo "== trompo-bench: per-step costs and the Δt sweep -> $out/bench.json"
+start_s=$SECONDS
+total=$("$build/bench/trompo-bench" --benchmark_list_tests "$@" | grep -c -E '^(step|sweep)/' || true)
+echo "== trompo-bench: per-step costs and the Δt sweep ($total benchmarks) -> $out/bench.json"
 "$build/bench/trompo-bench" --benchmark_out="$out/bench.json" --benchmark_out_format=json \
-  --benchmark_counters_tabular=false "$@" >"$out/bench_console.txt"
+  --benchmark_counters_tabular=false "$@" | progress "$out/bench_console.txt" "$total"
 echo "   $(grep -c '^sweep/' "$out/bench_console.txt" || true) sweep runs, $(($(date +%s) - start)) s"
 echo "== trompo-bench: long-run energy series -> $out/energy_series.csv"
 "$build/bench/trompo-bench" --trompo_energy_series="$out/energy_series.csv"
@@ -34,6 +59,6 @@ echo "== report"
 /usr/bin/python3 scripts/report.py "$out"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
   cp "$out"/{work_precision,frontier,energy_vs_h,energy_over_time,newton_vs_h}.png docs/img/
-  echo "   plots copied to docs/img/ (update the numbers in README "What accuracy costs" from $out/report.md)"
+  echo "   plots copied to docs/img/; tables written into docs/accuracy.md (check the figures quoted in its prose)"
 fi
 echo "== done in $(($(date +%s) - start)) s (after the build): $out/report.md"

@@ -2,20 +2,25 @@
 # The whole test suite, from a clean clone on Debian 12 (README quick start, and .ci/run).
 #   1. install missing Debian packages
 #   2. build everything (tests, examples, bench) in Release with warnings as errors; run ctest
-#   3. a bounded libFuzzer run of the step contract (clang)
-#   4. rebuild the tests with AddressSanitizer + UndefinedBehaviorSanitizer; run ctest
+#   3. the API reference (Doxygen, target docs): fails on any warning, e.g. an undocumented
+#      public name in include/trompo
+#   4. a bounded libFuzzer run of the step contract (clang)
+#   5. rebuild the tests with AddressSanitizer + UndefinedBehaviorSanitizer; run ctest
 #      (last, so that the run closes on ctest's summary line)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
-scripts/deps.sh clang libclang-rt-14-dev
+scripts/deps.sh clang libclang-rt-14-dev doxygen graphviz python3
 
 echo "== build (Release, -Werror)"
 cmake -S . -B build/test -DCMAKE_BUILD_TYPE=Release -DTROMPO_WARNINGS_AS_ERRORS=ON >/dev/null
 cmake --build build/test -j"$jobs"
 echo "== ctest"
 ctest --test-dir build/test --output-on-failure -j"$jobs"
+
+echo "== docs (Doxygen; any warning fails)"
+cmake --build build/test --target docs
 
 echo "== fuzz"
 scripts/fuzz.sh

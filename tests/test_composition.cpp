@@ -1,4 +1,4 @@
-// ComposedStepper (THEORY §6): observed orders 4 and 6, exact invariants kept, and the
+// ComposedStepper (docs/theory.md §6): observed orders 4 and 6, exact invariants kept, and the
 // Stepper::step contract (state untouched on failure, iterations summed).
 //
 // Orders are observed by step halving without a reference: with y_h the end state at

@@ -1,5 +1,5 @@
-// Scenes and effects (THEORY §1, §3, §5): one test per row of the invariants table in
-// README "Scenes and effects", run for every scheme; the effects' Jacobians and every
+// Scenes and effects (docs/theory.md §1, §3, §5): one test per row of the invariants table in
+// docs/scenes.md, run for every scheme; the effects' Jacobians and every
 // scheme's tangent against central differences.
 //
 // Each row prints its measured figure per scheme as
@@ -31,10 +31,10 @@ constexpr Keeps kept = S::template keeps<Scene>;
 /// H exact on the free body (every energy-momentum scheme; not RK4).
 template <class S>
 constexpr bool is_implicit = kept<S, FreeScene<double>>.energy;
-/// H exact for potentials linear in Λ (uniform gravity), THEORY §3–4.
+/// H exact for potentials linear in Λ (uniform gravity), docs/theory.md §3–4.
 template <class S>
 constexpr bool energy_exact_linear = kept<S, HeavyTop<double>>.energy;
-/// π (free body) and μ (gravity) exact: the Simo family and GB [T4], not [T5] (THEORY §4).
+/// π (free body) and μ (gravity) exact: the Simo family and GB [T4], not [T5] (docs/theory.md §4).
 template <class S>
 constexpr bool momentum_exact = kept<S, HeavyTop<double>>.momentum_map && kept<S, FreeScene<double>>.spatial_momentum;
 
@@ -116,7 +116,7 @@ template <class S>
 using TestPotentialH = Potential<S, TestV<S>, TestGradient<S>, TestHessian<S>>;
 TestPotential<double> test_potential() { return {TestV<double>{}, TestGradient<double>{}}; }
 TestPotentialH<double> test_potential_h() { return {TestV<double>{}, TestGradient<double>{}, TestHessian<double>{}}; }
-/// H exact for a general potential: the two projections of THEORY §3.
+/// H exact for a general potential: the two projections of docs/theory.md §3.
 template <class S>
 constexpr bool energy_exact_general = kept<S, Scene<double, TestPotential<double>>>.energy;
 
@@ -134,7 +134,7 @@ void run(const SceneT& scene, State<double> s, double h, int n, F&& each) {
   }
 }
 
-/// Ω_m = (Ω_n + Ω_{n+1})/2: Θ/h in the Simo family, 2e/h in GB (THEORY §3–5).
+/// Ω_m = (Ω_n + Ω_{n+1})/2: Θ/h in the Simo family, 2e/h in GB (docs/theory.md §3–5).
 Vec3 mid_omega(const State<double>& a, const State<double>& b) { return (a.omega + b.omega) / 2; }
 
 /// Power identity on one scene: max_n |ΔH − h Ω_m·T_m| / max H-scale, and whether

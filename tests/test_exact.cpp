@@ -1,4 +1,4 @@
-// Exact reference solutions (trompo::exact::LagrangeTop, FreeBody), THEORY §8:
+// Exact reference solutions (trompo::exact::LagrangeTop, FreeBody), docs/theory.md §8:
 //   1. agreement with the shared reference figures of HT0, HT1, FB1, FB2 (tests/data);
 //   2. agreement with an independent fine integration (odeint Runge–Kutta–Fehlberg 7(8),
 //      controlled, on the quaternion + Ω equations written below) on the standard and
@@ -244,7 +244,7 @@ Errors against_table(const RotFn& L, const OmFn& W, const double (&tab)[N][M]) {
   return e;
 }
 
-// The standard cases (THEORY §8).
+// The standard cases (docs/theory.md §8).
 Problem ht0() { return top_problem(5, 1, 196.2, Rx(0.3), Vector3d(0, 0, 50)); }
 Problem ht1() { return top_problem(5, 1, 20, Rx(0.05), Vector3d(0, 0, 50)); }
 Problem fb1() { return {Vector3d(1, 2, 3), 0.0, Vector3d::UnitZ(), Matrix3d::Identity(), Vector3d(0.01, 2, 0.01)}; }
@@ -486,19 +486,26 @@ TEST_CASE("exact: FreeBody on degenerate and other inputs", "[exact][free][ode]"
 
 // ---- input checks and the elliptic helpers ----------------------------------------------
 
-TEST_CASE("exact: invalid inputs are rejected", "[exact]") {
+TEST_CASE("exact: invalid inputs throw trompo::invalid_input naming the field and the value", "[exact]") {
+  using Catch::Matchers::Contains;
   const Matrix3d I = Matrix3d::Identity();
   const Vector3d W(0, 0, 1);
-  CHECK_THROWS_AS(LagrangeTop(0, 1, 1, I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, -1, 1, I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, std::nan(""), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, I, W, Vector3d::Zero()), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, 2.0 * I, W), std::invalid_argument);
-  CHECK_THROWS_AS(LagrangeTop(1, 1, 1, -I, W), std::invalid_argument);
+  // The same exception as the rest of the library (errors.hpp), still a std::invalid_argument.
+  CHECK_THROWS_AS(LagrangeTop(0, 1, 1, I, W), trompo::invalid_input);
   CHECK_THROWS_AS(FreeBody(Vector3d(1, 0, 2), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(FreeBody(Vector3d(1, -2, 2), I, W), std::invalid_argument);
-  CHECK_THROWS_AS(FreeBody(Vector3d(1, 2, 3), I, Vector3d(0, std::numeric_limits<double>::infinity(), 0)),
-                  std::invalid_argument);
+  CHECK_THROWS_WITH(LagrangeTop(0, 1, 1, I, W), Contains("LagrangeTop: A") && Contains("got 0"));
+  CHECK_THROWS_WITH(LagrangeTop(1, -1, 1, I, W), Contains("LagrangeTop: C") && Contains("got -1"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, std::nan(""), I, W), Contains("Mgl") && Contains("nan"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, I, W, Vector3d::Zero()), Contains("gamma") && Contains("(0, 0, 0)"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, 2.0 * I, W), Contains("Lambda0 is not a rotation") && Contains("= 3"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, -I, W), Contains("Lambda0 is not a rotation, determinant -1"));
+  CHECK_THROWS_WITH(LagrangeTop(1, 1, 1, I, Vector3d(0, std::nan(""), 1)), Contains("Omega0") && Contains("nan"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, 0, 2), I, W), Contains("FreeBody: the moments of inertia J") &&
+                                                          Contains("(1, 0, 2)"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, -2, 2), I, W), Contains("(1, -2, 2)"));
+  CHECK_THROWS_WITH(FreeBody(Vector3d(1, 2, 3), I, Vector3d(0, std::numeric_limits<double>::infinity(), 0)),
+                    Contains("FreeBody: Omega0") && Contains("inf"));
+  CHECK_THROWS_AS(FreeBody(Vector3d(1, 2, 3), I * std::nan(""), W), trompo::invalid_input);
 }
 
 TEST_CASE("exact: Jacobi elliptic functions with the complementary parameter", "[exact]") {

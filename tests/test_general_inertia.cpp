@@ -1,5 +1,5 @@
 // A general (non-diagonal) inertia with the centre of mass off the principal axes: the
-// code must not assume a diagonal J or E = e3 (THEORY §1).
+// code must not assume a diagonal J or E = e3 (docs/theory.md §1).
 //
 // Body relabelling: rotating the body frame by a fixed P (J' = PJPᵀ, E' = PE,
 // Λ0' = Λ0Pᵀ, Ω0' = PΩ0) describes the same motion, so every scheme (each is written in

@@ -1,4 +1,4 @@
-// The hard cases of THEORY §9, for every scheme where they apply. The contract each
+// The hard cases of docs/theory.md §9, for every scheme where they apply. The contract each
 // case checks: every accepted step is finite and keeps the scheme's exact invariants;
 // every failed step reports a status and leaves the state bit-for-bit unchanged; and
 // integrate() gets through by sub-stepping where single steps fail.
@@ -28,7 +28,7 @@ using V3 = Eigen::Matrix<Scalar, 3, 1>;
 using Vec3 = Eigen::Vector3d;
 
 // Which invariants a scheme keeps to round-off on the heavy top: the scheme's own traits
-// (scheme.hpp; THEORY §3, §4).
+// (scheme.hpp; docs/theory.md §3, §4).
 template <class Scheme>
 constexpr bool exact_energy = Scheme::template keeps<cases::Top<double>>.energy;
 template <class Scheme>

@@ -1,4 +1,4 @@
-// Long runs (THEORY §9): 10⁵ steps of HT1 and FB1 with Simo-κ and Géradin–Bauchau keep
+// Long runs (docs/theory.md §9): 10⁵ steps of HT1 and FB1 with Simo-κ and Géradin–Bauchau keep
 // |ΔH/H|, |Δμ/μ| and ‖ΛᵀΛ − I‖ below 1e-11 at every step — the assertions of
 // trompo-bench-long-run (bench/bench_long_run.cpp), which runs 10⁷ steps.
 //

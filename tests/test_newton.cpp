@@ -191,7 +191,7 @@ TEST_CASE("simplified Newton: evaluations per step as designed (HT1, Simo-kappa)
 TEST_CASE("simplified Newton keeps H and mu on an anisotropic top where a careless acceptance drifts (2e4 steps)",
           "[newton][invariants]") {
   // The top on which accepting a first chord step by the Newton rate drifted H by 4e-12
-  // in 1000 steps (the chord rate was 30x the Newton rate there): README, Design notes.
+  // in 1000 steps (the chord rate was 30x the Newton rate there): docs/design.md, Design notes.
   const HeavyTop<double> scene(RigidBody<double>(Vec3(4, 5, 2)), UniformGravity<double>(15.0, Vec3(0.2, 0.1, 1.0)));
   State<double> s;
   s.rotation = SO3d::exp(Vec3(0.4, -0.2, 0.1));

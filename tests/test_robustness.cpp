@@ -1,5 +1,5 @@
 // Input validation, the failure contract of a step, and integrate's recovery rule
-// (README "Robustness").
+// (docs/robustness.md).
 //
 //  - invalid input throws trompo::invalid_input naming the field and the value;
 //  - a failed step returns its status and leaves the state bit-for-bit unchanged;

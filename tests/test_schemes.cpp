@@ -1,6 +1,6 @@
-// The schemes on the standard cases (THEORY §3, §4, §7, §8): invariants over 10⁴ steps,
+// The schemes on the standard cases (docs/theory.md §3, §4, §7, §8): invariants over 10⁴ steps,
 // observed orders against closed-form references, symmetry, Newton iteration counts and
-// the reproduction of the reference table of THEORY §7.
+// the reproduction of the reference table of docs/theory.md §7.
 //
 // References are the project's independent solutions (closed-form Lagrange top and free
 // body, RKF78 in 128-bit for HT2), copied into support/trompo_test.hpp.
@@ -192,19 +192,19 @@ TEST_CASE("Geradin-Bauchau paper form [T5]: H exact (<= 1e-12) over 1e4 steps on
   });
 }
 
-TEST_CASE("Geradin-Bauchau paper form [T5]: max|dmu/mu| to t = 1 within 30% of THEORY 6.4e-2, 2.3e-2, 6.2e-3, 1.6e-3 (reproduced on HT0)",
+TEST_CASE("Geradin-Bauchau paper form [T5]: max|dmu/mu| to t = 1 within 30% of the reference 6.4e-2, 2.3e-2, 6.2e-3, 1.6e-3 (reproduced on HT0)",
           "[invariants][gb-paper]") {
-  // THEORY §4 attributes these figures to HT1; they are HT0's (Mgl = 196.2, tilt 0.3). On
-  // HT1 (Mgl = 20, tilt 0.05) [T5] drifts ~3000× less (next test); an independent [T5]
-  // written from THEORY with finite-difference Newton gives the same numbers as trompo on
-  // both cases, so the label in THEORY is what is wrong.
+  // The prototype's note gave these figures as HT1's; they are HT0's (Mgl = 196.2, tilt
+  // 0.3), as docs/theory.md §4 now says. On HT1 (Mgl = 20, tilt 0.05) [T5] drifts ~3000×
+  // less (next test); an independent [T5] with finite-difference Newton gives the same
+  // numbers as trompo on both cases, so the old label was what was wrong.
   const auto c = cases::ht0<double>();
   const double hs[] = {0.01, 0.005, 0.0025, 0.00125};
-  const double expected[] = {6.4e-2, 2.3e-2, 6.2e-3, 1.6e-3};  // THEORY §4, measured by the prototype
+  const double expected[] = {6.4e-2, 2.3e-2, 6.2e-3, 1.6e-3};  // docs/theory.md §4, measured by the prototype
   for (int k = 0; k < 4; ++k) {
     const RunStats<double> st = run_case<GeradinBauchauPaper>(c, hs[k], std::lround(1.0 / hs[k]));
-    INFO("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " (THEORY " << expected[k] << "), max|dH/H| = " << st.max_dH);
-    WARN("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " vs THEORY " << expected[k]);
+    INFO("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " (reference " << expected[k] << "), max|dH/H| = " << st.max_dH);
+    WARN("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " vs reference " << expected[k]);
     REQUIRE(st.failures == 0);
     CHECK(st.max_dmu >= 0.7 * expected[k]);
     CHECK(st.max_dmu <= 1.3 * expected[k]);
@@ -372,7 +372,7 @@ TEMPLATE_TEST_CASE("Reversibility: HT1 integrated to t = 1 and back (h = -0.005)
 
 // =====================================================================================
 // =====================================================================================
-TEST_CASE("THEORY 7 table, HT0: max dH/H of Simo-alpha and |Lambda - Lambda_ref|_F within 10% (t = 1 — 100/200/400 steps)",
+TEST_CASE("Reference table of theory section 7, HT0: max dH/H of Simo-alpha and |Lambda - Lambda_ref|_F within 10% (t = 1 — 100/200/400 steps)",
           "[table]") {
   // Λref: the closed-form HT0 at t = 1 (reference set). The prototype's ‖Λ − Λref‖ is
   // matched by the Frobenius norm (the spectral norm is 1/√2 of it for a small rotation
@@ -393,9 +393,9 @@ TEST_CASE("THEORY 7 table, HT0: max dH/H of Simo-alpha and |Lambda - Lambda_ref|
       const Mat3 D = st.final.rotation.matrix() - trompo_test::ht0_t1.rotation();
       const double fro = trompo_test::frobenius(D), spec = trompo_test::spectral(D), mx = trompo_test::max_abs(D);
       INFO(row.name << ", h = " << h << ": |Lambda - ref| Frobenius " << fro << ", spectral " << spec << ", max-abs " << mx
-                    << " (THEORY " << row.lambda[k] << "); max dH/H " << st.max_dH << ", max dmu/mu " << st.max_dmu
+                    << " (reference " << row.lambda[k] << "); max dH/H " << st.max_dH << ", max dmu/mu " << st.max_dmu
                     << ", Newton its/step " << st.mean_iterations());
-      WARN("table " << row.name << " h = " << h << ": |dLambda|_F " << fro << " (THEORY " << row.lambda[k] << "), spectral "
+      WARN("table " << row.name << " h = " << h << ": |dLambda|_F " << fro << " (reference " << row.lambda[k] << "), spectral "
                     << spec << ", dH " << st.max_dH << ", dmu " << st.max_dmu << ", its " << st.mean_iterations());
       CHECK(std::abs(fro - row.lambda[k]) <= 0.1 * row.lambda[k]);
       CHECK(st.max_dmu <= 1e-13);
@@ -415,7 +415,7 @@ TEST_CASE("THEORY 7 table, HT0: max dH/H of Simo-alpha and |Lambda - Lambda_ref|
 // =====================================================================================
 TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gamma — |Omega0| <= 3, h = 0.05, 200 steps each)",
                    "[robustness]", SimoAlpha, SimoCollocation, SimoKappa, GeradinBauchau) {
-  // |Θ| ≤ ~0.2 a step: well inside every scheme's comfort zone (THEORY §9 puts the fold at
+  // |Θ| ≤ ~0.2 a step: well inside every scheme's comfort zone (docs/theory.md §9 puts the fold at
   // |Θ| ≈ 2.5). A failure here is a solver defect, not a hard case — except for
   // collocation: where f″(½) changes sign along the step (a nutation turn) its α(Θ)
   // must jump between the roots ½ ± ~0.29 of [T2] (no continuous choice exists), and

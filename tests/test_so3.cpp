@@ -1,4 +1,4 @@
-// SO3 property suite (STYLE item 6): one generic suite over float, double and long double,
+// SO3 property suite: one generic suite over float, double and long double,
 // hard inputs written out, fixed seeds, every series threshold probed at
 // threshold·(1 ± 1e-3) against an independent high-precision reference.
 #include <Eigen/Geometry>
@@ -34,7 +34,7 @@ S eps() {
 
 constexpr LD kPi = 3.141592653589793238462643383279502884L;
 
-/// The hard angles of the suite, written out (THEORY §9, STYLE item 6), as Scalar values.
+/// The hard angles of the suite, written out (docs/theory.md §9), as Scalar values.
 template <class S>
 std::vector<S> hard_angles() {
   const S th = trompo::detail::small_angle<S>::theta;  // 0.25: series switch of sinc, T, T⁻¹
@@ -191,7 +191,7 @@ TEMPLATE_TEST_CASE("SO3 series coefficients: relative error vs high-precision cl
   }
   // Tolerance: 256 ε of the Scalar. The worst closed form right above a switch,
   // (1 − (θ/2)cot(θ/2))/θ², loses ~ε/(θ²/12) ≈ 200 ε at θ = ¼ in the last bit-rounding of
-  // its cot; the series lose only a few ε. (1e-12 relative in double, STYLE item 5, is 4500 ε.)
+  // its cot; the series lose only a few ε. (1e-12 relative in double, is 4500 ε.)
   const double tol_ulps = 256;
   const Coef all[] = {Coef::sinc,       Coef::one_minus_cos_over_sq, Coef::theta_minus_sin_over_cube, Coef::inverse_tangent,
                       Coef::kappa,      Coef::one_minus_kappa,       Coef::kappa_prime_over_theta,    Coef::half_kappa,

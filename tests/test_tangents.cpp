@@ -1,4 +1,4 @@
-// Analytic Newton tangents (THEORY [T3], [T4]/[T5] tangents, the half-rotation Jacobian)
+// Analytic Newton tangents ([T3], [T4]/[T5] tangents, the half-rotation Jacobian)
 // against central differences, and the collocation root of [T2] against an independent
 // root finder.
 //
@@ -276,7 +276,7 @@ using Hi = boost::multiprecision::cpp_bin_float_50;
 using Hi = long double;
 #endif
 
-/// The collocation root of THEORY [T2] in its original form, by scanning [0, 1] for sign
+/// The collocation root of [T2] in its original form, by scanning [0, 1] for sign
 /// changes of g(α) = f′(α) − (f(1) − f(0)) and bisecting each in high precision, with
 /// f(ξ) = B cos ξθ + C sin ξθ. Returns the root nearest ½ (−1 if none).
 double reference_alpha(double theta, double B, double C) {
@@ -359,7 +359,7 @@ TEST_CASE("Collocation alpha of [T2]: degenerate limits (theta = 0, 1e-8 — sle
 TEST_CASE("Collocation alpha of [T2]: where B' changes sign, alpha jumps between the two roots 1/2 +- acos(kappa)/theta, both satisfying [T2]",
           "[tangent][collocation]") {
   // With B′ = 0 the condition C′(cos sθ − κ) = B′ sin sθ has the two roots s = ±acos(κ)/θ,
-  // equidistant from ½: "the root nearest ½" (THEORY [T2]) must jump there. This is a
+  // equidistant from ½: "the root nearest ½" ([T2]) must jump there. This is a
   // property of the scheme (no continuous choice stays near ½ for both signs of B′), and it
   // makes the Simo-collocation residual discontinuous across the surface B′(Θ) = 0.
   for (double theta : {1e-6, 0.1, 0.5, 2.0}) {

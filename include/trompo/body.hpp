@@ -1,5 +1,5 @@
 #pragma once
-// A rigid body about its fixed point O (THEORY §1): the inertia J in body axes.
+// A rigid body about its fixed point O (docs/theory.md §1): the inertia J in body axes.
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -14,17 +14,24 @@ namespace trompo {
 struct allow_unphysical_inertia_t {
   explicit allow_unphysical_inertia_t() = default;
 };
+/// The tag that lets RigidBody accept principal moments breaking J1 + J2 ≥ J3.
 inline constexpr allow_unphysical_inertia_t allow_unphysical_inertia{};
 
+/// A rigid body about its fixed point O (or its centre of mass): the inertia J in body axes,
+/// validated on construction (docs/theory.md §1).
 template <class Scalar_>
 class RigidBody {
  public:
+  /// The scalar type (float, double, long double).
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
   /// Principal moments (J1, J2, J3) along the body axes.
   explicit RigidBody(const Vector3& principal) : RigidBody(Matrix3(principal.asDiagonal()), true) {}
+  /// Principal moments (J1, J2, J3) without the triangle inequality (see allow_unphysical_inertia_t).
   RigidBody(const Vector3& principal, allow_unphysical_inertia_t)
       : RigidBody(Matrix3(principal.asDiagonal()), false) {}
 
@@ -36,7 +43,9 @@ class RigidBody {
   /// As above, without the triangle inequality (see allow_unphysical_inertia_t).
   RigidBody(const Matrix3& inertia, allow_unphysical_inertia_t) : RigidBody(inertia, false) {}
 
+  /// J, the inertia about O in body axes.
   const Matrix3& inertia() const { return J_; }
+  /// J⁻¹.
   const Matrix3& inertia_inverse() const { return J_inv_; }
   /// True when J is diagonal (then products with J are three multiplications).
   bool is_diagonal() const { return diagonal_; }
@@ -51,6 +60,7 @@ class RigidBody {
   /// ½ Ω·JΩ
   Scalar kinetic_energy(const Vector3& omega) const { return omega.dot(momentum(omega)) / 2; }
 
+  /// The same body in another scalar type.
   template <class NewScalar>
   RigidBody<NewScalar> cast() const {
     return RigidBody<NewScalar>(Eigen::Matrix<NewScalar, 3, 3>(J_.template cast<NewScalar>()),

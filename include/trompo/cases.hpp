@@ -1,5 +1,5 @@
 #pragma once
-// The standard cases of THEORY §7–8, as ready-made scenes and initial states.
+// The standard cases of docs/theory.md §7–8, as ready-made scenes and initial states.
 //
 //   auto c = trompo::cases::ht1<double>();
 //   Stepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, c.scene);
@@ -15,18 +15,27 @@
 
 namespace trompo::cases {
 
+/// A standard case: a scene, its initial state and its end time (docs/theory.md §7–8).
 template <class SceneT_>
 struct Case {
+  /// The scene type (Top or Free).
   using SceneT = SceneT_;
+  /// The scalar type of the scene.
   using Scalar = typename SceneT::Scalar;
+  /// "ht0", "ht1", "ht2", "fb1" or "fb2".
   const char* name;
+  /// The body and its effects.
   SceneT scene;
+  /// The initial state at t = 0.
   State<Scalar> initial;
+  /// The end time of the case.
   Scalar t_end;
 };
 
+/// The scene of the heavy-top cases: a body under uniform gravity.
 template <class Scalar>
 using Top = Scene<Scalar, UniformGravity<Scalar>>;
+/// The scene of the free-body cases: no effects.
 template <class Scalar>
 using Free = Scene<Scalar>;
 
@@ -42,20 +51,20 @@ Case<Top<Scalar>> lagrange_top(const char* name, Scalar Mgl, Scalar tilt, Scalar
 }
 }  // namespace detail
 
-/// HT0, THEORY §7: J = diag(5,5,1), Mgl = 196.2 (20·9.81), E = γ = e3,
+/// HT0, docs/theory.md §7: J = diag(5,5,1), Mgl = 196.2 (20·9.81), E = γ = e3,
 /// Λ0 = exp(0.3 ê1), Ω0 = (0, 0, 50); t ∈ [0, 10] (the §7 table runs to t = 1).
 template <class Scalar = double>
 Case<Top<Scalar>> ht0() {
   return detail::lagrange_top<Scalar>("ht0", Scalar(196.2L), Scalar(0.3L), Scalar(10));
 }
 
-/// HT1, THEORY §8: the symmetric heavy top of Simo & Wong (1991): Mgl = 20, tilt 0.05.
+/// HT1, docs/theory.md §8: the symmetric heavy top of Simo & Wong (1991): Mgl = 20, tilt 0.05.
 template <class Scalar = double>
 Case<Top<Scalar>> ht1() {
   return detail::lagrange_top<Scalar>("ht1", Scalar(20), Scalar(0.05L), Scalar(10));
 }
 
-/// HT2, THEORY §8: the fast asymmetric top of Brüls & Cardona (2010): M = 15, l = 1,
+/// HT2, docs/theory.md §8: the fast asymmetric top of Brüls & Cardona (2010): M = 15, l = 1,
 /// g = 9.81, E = e2, γ = e3, Λ0 = I, Ω0 = (0, 150, −4.61538), inertia about the fixed
 /// point J = diag(15.234375, 0.46875, 15.234375); t ∈ [0, 2].
 template <class Scalar = double>
@@ -69,7 +78,7 @@ Case<Top<Scalar>> ht2() {
           s, Scalar(2)};
 }
 
-/// FB1, THEORY §8: free body near the intermediate axis (Dzhanibekov):
+/// FB1, docs/theory.md §8: free body near the intermediate axis (Dzhanibekov):
 /// J = diag(1, 2, 3), Ω0 = (0.01, 2, 0.01); t ∈ [0, 100].
 template <class Scalar = double>
 Case<Free<Scalar>> fb1() {
@@ -79,7 +88,7 @@ Case<Free<Scalar>> fb1() {
   return {"fb1", Free<Scalar>(RigidBody<Scalar>(V(1, 2, 3))), s, Scalar(100)};
 }
 
-/// FB2, THEORY §8: the free body of Hairer–Lubich–Wanner: J = diag(2, 1, 2/3),
+/// FB2, docs/theory.md §8: the free body of Hairer–Lubich–Wanner: J = diag(2, 1, 2/3),
 /// Π0 = (cos 1.1, 0, sin 1.1); t ∈ [0, 100] (their h = 0.1).
 template <class Scalar = double>
 Case<Free<Scalar>> fb2() {

@@ -1,6 +1,6 @@
 #pragma once
 // ComposedStepper<Scheme, Scene>: order 4 or 6 from a symmetric second-order scheme by
-// symmetric composition (THEORY §6).
+// symmetric composition (docs/theory.md §6).
 //
 //   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, scene, 4);
 //   StepReport<double> rep = stepper.step(state, h);   // three sub-steps γ_i h
@@ -15,8 +15,8 @@
 // Which order-4 set to use: the triple jump is the cheapest per step, but its middle
 // step −1.70h is long and backward, and its error constant is large. Suzuki's five steps
 // (four of 0.41h, one of −0.66h) cost 5/3 as much per step and, measured on HT1 to
-// t = 10, had a 50–800× smaller attitude error at the same h (README "What accuracy
-// costs"): for a given accuracy it is the cheaper of the two.
+// t = 10, had a 50–800× smaller attitude error at the same h (docs/accuracy.md):
+// for a given accuracy it is the cheaper of the two.
 // Every sub-step is a step of the base scheme, so whatever it conserves exactly (H and μ
 // for Simo-κ, collocation and Géradin–Bauchau; μ for Simo-α ½; π for the free body) the
 // composition conserves too. Negative γ_i are steps backward in time, which the base
@@ -58,6 +58,7 @@ enum class Composition {
   kahan_li9     ///< order 6, 9 steps (Kahan & Li 1997)
 };
 
+/// The name of a composition, as the CLI spells it ("triple-jump", "suzuki-5", …).
 inline const char* to_string(Composition c) {
   switch (c) {
     case Composition::base: return "base";
@@ -82,15 +83,21 @@ inline Composition composition_of_order(int order) {
 /// The weights γ_1 … γ_s of a symmetric composition of order 2, 4 or 6.
 template <class Scalar>
 struct CompositionCoefficients {
+  /// The largest number of sub-steps of the compositions on offer (Kahan–Li's 9).
   static constexpr int max_stages = 9;
+  /// Which composition.
   Composition method = Composition::base;
+  /// Its order: 2, 4 or 6.
   int order = 2;
+  /// The number of sub-steps s.
   int stages = 1;
+  /// The weights γ_1 … γ_s (the rest are zero).
   std::array<Scalar, max_stages> gamma{};
 
   /// Throws invalid_input unless order is 2, 4 or 6 (composition_of_order).
   static CompositionCoefficients of_order(int order) { return of(composition_of_order(order)); }
 
+  /// The weights of a named composition. Throws invalid_input for an unknown one.
   static CompositionCoefficients of(Composition method) {
     CompositionCoefficients c;
     c.method = method;
@@ -154,6 +161,8 @@ struct composed_memory<NoMemory, N> {
 };
 }  // namespace detail
 
+/// Order 4 or 6 from a symmetric order-2 scheme by symmetric composition (docs/theory.md §6):
+/// one step of size h is the base steps γ_1 h, …, γ_s h. Keeps whatever the base keeps.
 template <class Scheme, class Scene_>
   requires SchemeFor<Scheme, Scene_>
 class ComposedStepper {
@@ -162,12 +171,17 @@ class ComposedStepper {
                 "composing it does not raise its order; step it with Stepper<Scheme, Scene> instead");
 
  public:
+  /// The scene type.
   using Scene = Scene_;
+  /// The scalar type of the scene.
   using Scalar = typename Scene::Scalar;
+  /// The stepper of one sub-step.
   using Base = Stepper<Scheme, Scene>;
+  /// The memory of the base scheme (NoMemory for the library's schemes).
   using BaseMemory = typename Base::Memory;
   /// One base memory per sub-step index (NoMemory for a memoryless base).
   using Memory = typename detail::composed_memory<BaseMemory, CompositionCoefficients<Scalar>::max_stages>::type;
+  /// A state with the composed memory (one base memory per sub-step index).
   using TrajectoryType = Trajectory<Scalar, Memory>;
 
   /// `order` is 2 (the base scheme, one step), 4 (triple jump, 3 sub-steps) or 6
@@ -231,10 +245,13 @@ class ComposedStepper {
     return total;
   }
 
+  /// The order of the composition: 2, 4 or 6.
   int order() const { return coefficients_.order; }
+  /// Which composition.
   Composition method() const { return coefficients_.method; }
   /// Base steps per composed step (1, 3, 5 or 9): the cost factor over the base scheme.
   int stages() const { return coefficients_.stages; }
+  /// The weights γ_i.
   const CompositionCoefficients<Scalar>& coefficients() const { return coefficients_; }
   /// A composition of a symmetric scheme by symmetric weights is symmetric.
   bool symmetric() const { return base_.symmetric(); }
@@ -242,10 +259,15 @@ class ComposedStepper {
   /// a base step).
   Keeps keeps() const { return base_.keeps(); }
 
+  /// The stepper of one sub-step.
   const Base& base() const { return base_; }
+  /// The base scheme.
   const Scheme& scheme() const { return base_.scheme(); }
+  /// The scene.
   const Scene& scene() const { return base_.scene(); }
+  /// The Newton options of every sub-step.
   const NewtonOptions<Scalar>& options() const { return base_.options(); }
+  /// The Newton options of every sub-step, to modify.
   NewtonOptions<Scalar>& options() { return base_.options(); }
 
  private:

@@ -17,7 +17,7 @@
 // step state.time is set to the grid time t_k, so times do not accumulate round-off.
 // h < 0 integrates backward; t_end must then be ≤ t0.
 //
-// The recovery rule (README "Robustness"). A step that fails (any StepStatus but ok:
+// The recovery rule (docs/robustness.md). A step that fails (any StepStatus but ok:
 // Newton did not converge, singular tangent, out of domain, wrong branch, non-finite)
 // leaves the state untouched (Stepper::step). integrate then retries the same interval
 // as two steps of half the size, and recursively halves any half that fails, down to
@@ -73,7 +73,9 @@ struct IntegrationSummary {
   StepStatus last_failure = StepStatus::ok;  ///< the last failure seen, even if recovered
   Scalar time = Scalar(0);        ///< the time reached (t_end when ok)
 
+  /// True when the integration reached t_end.
   bool ok() const { return status == StepStatus::ok; }
+  /// The failure that stopped it, as text ("ok" when none).
   const char* reason() const { return to_string(status); }
 };
 

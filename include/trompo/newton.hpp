@@ -1,7 +1,7 @@
 #pragma once
 // The step report and the 3×3 Newton solver shared by the implicit schemes.
 //
-// Convergence is judged on both the correction and the residual (STYLE item 8):
+// Convergence is judged on both the correction and the residual:
 // an iterate is accepted when ‖R‖ ≤ residual_tolerance·scale and the last correction
 // ‖δ‖ ≤ step_tolerance·(size of the increment). Iterations are capped; the tangent is
 // checked for singularity; non-finite values stop the solve. Nothing here throws.
@@ -12,16 +12,19 @@
 
 namespace trompo {
 
+/// The outcome of a step: ok, or why it failed (the state is then unchanged).
 enum class StepStatus {
+  /// the step was taken
   ok,
   not_converged,     ///< the iteration cap was reached
-  singular_tangent,  ///< the Newton tangent lost rank (e.g. the fold of THEORY §9)
+  singular_tangent,  ///< the Newton tangent lost rank (e.g. the fold of docs/theory.md §9)
   out_of_domain,     ///< GB: |e| ≥ 1, an increment at or beyond π
   wrong_branch,      ///< converged to an implausible increment (see NewtonOptions)
   non_finite,        ///< a NaN or infinity appeared
   invalid_step       ///< Δt zero or non-finite
 };
 
+/// The status as text: "ok", or a short reason ("Newton tangent is singular", …).
 inline const char* to_string(StepStatus s) {
   switch (s) {
     case StepStatus::ok: return "ok";
@@ -38,16 +41,19 @@ inline const char* to_string(StepStatus s) {
 /// What a step did. On any status but ok the state was left exactly as it was.
 template <class Scalar>
 struct StepReport {
+  /// ok, or why the step failed.
   StepStatus status = StepStatus::ok;
   int iterations = 0;           ///< Newton iterations (linear solves); 0 for explicit schemes
   Scalar residual = Scalar(0);  ///< final ‖R‖ / scale
+  /// True when the step succeeded.
   bool ok() const { return status == StepStatus::ok; }
+  /// The status as text.
   const char* reason() const { return to_string(status); }
 };
 
 /// Newton controls. The defaults reach round-off in 2–4 iterations at moderate h.
 ///
-/// Branch rule (THEORY §9): at large h the implicit equations have several roots; the
+/// Branch rule (docs/theory.md §9): at large h the implicit equations have several roots; the
 /// step must stay on the one that continues the h → 0 solution. A converged increment
 /// is reported as wrong_branch rather than silently taken when
 ///  - its rotation angle is max_increment or more (near or past π), or
@@ -60,10 +66,15 @@ struct StepReport {
 ///    disagreed with continuation in h, for Simo-α, Simo-κ and GB.)
 template <class Scalar>
 struct NewtonOptions {
+  /// Newton iterations before a step is reported not_converged.
   int max_iterations = 25;
+  /// Acceptance: the residual, relative to its natural scale.
   Scalar residual_tolerance = Scalar(64) * std::numeric_limits<Scalar>::epsilon();
+  /// Acceptance: the last correction, relative to the increment.
   Scalar step_tolerance = std::sqrt(std::numeric_limits<Scalar>::epsilon());
+  /// Branch rule: the largest increment angle accepted (0.999π).
   Scalar max_increment = Scalar(0.999) * Scalar(3.14159265358979323846264338327950288L);
+  /// Branch rule: the largest distance of the root from the predictor (rad).
   Scalar max_correction = Scalar(1);
   /// Simplified Newton: the tangent is reused while the last correction is at most this
   /// fraction of the increment's size, and re-evaluated when a reused one contracts the
@@ -105,7 +116,7 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// small near the root but only linearly; when the residual did not fall by 10× over a
 /// chord step, the tangent is re-evaluated at x_k and the iteration is Newton again.
 ///
-/// Acceptance. As before (STYLE item 8): ‖R‖ ≤ residual_tolerance·scale after a Newton
+/// Acceptance. As before: ‖R‖ ≤ residual_tolerance·scale after a Newton
 /// correction ≤ step_tolerance·x_scale (its remainder is quadratic, far below
 /// round-off). And, without a confirming evaluation, by the contraction estimate: when
 /// two successive corrections are of the same kind (Newton after Newton, or chord after

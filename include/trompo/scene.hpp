@@ -22,30 +22,44 @@ constexpr bool linear_or_not_potential() {
 }
 }  // namespace detail
 
+/// A rigid body and the effects acting on it, fixed at compile time: energy, momenta, torques
+/// and their Jacobians are assembled from exactly the listed effects (docs/design.md).
 template <class Scalar_, class... Effects>
 class Scene {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// The per-step caches of the effects, one per effect.
   using Caches = std::tuple<typename Effects::Cache...>;
 
+  /// Whether effect E is of the given kind (potential_kind, torque_kind, rotor_kind).
   template <class E, class Kind>
   static constexpr bool is_kind = std::is_same_v<typename E::kind, Kind>;
 
+  /// Some effect is a potential (enters H).
   static constexpr bool has_potential = (is_kind<Effects, potential_kind> || ...);
+  /// Some effect is an applied torque.
   static constexpr bool has_applied_torque = (is_kind<Effects, torque_kind> || ...);
+  /// Some effect is a rotor.
   static constexpr bool has_rotor = (is_kind<Effects, rotor_kind> || ...);
   /// Every potential is linear in Λ: the closed forms of Simo-κ (19) and [T2] apply.
   static constexpr bool potentials_linear = (detail::linear_or_not_potential<Effects>() && ...);
   /// No effect at all: the free body; its step computes no torque.
   static constexpr bool is_free = sizeof...(Effects) == 0;
 
+  /// The body and one value of each listed effect, in order.
   explicit Scene(RigidBody<Scalar> body, Effects... effects)
       : body_(std::move(body)), effects_(std::move(effects)...) {}
 
+  /// The rigid body.
   const RigidBody<Scalar>& body() const { return body_; }
+  /// The effects, in the order listed.
   const std::tuple<Effects...>& effects() const { return effects_; }
+  /// The effect of type E.
   template <class E>
   const E& effect() const { return std::get<E>(effects_); }
 
@@ -86,6 +100,7 @@ class Scene {
   Scalar momentum_map(const State<Scalar>& s) const { return momentum_axis().dot(spatial_momentum(s)); }
 
   // ---- assembly used by the schemes (frame of step n) ---------------------------------
+  /// Each effect's cache for a step from Λ_n, with mid time t_mid.
   Caches caches(const Matrix3& Lambda_n, Scalar t_mid) const {
     return std::apply([&](const auto&... e) { return Caches{e.cache(Lambda_n, t_mid)...}; }, effects_);
   }

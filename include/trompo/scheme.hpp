@@ -64,6 +64,7 @@ struct Keeps {
 
 /// The memory of a scheme that remembers nothing between steps.
 struct NoMemory {
+  /// All fresh memories are equal.
   friend bool operator==(const NoMemory&, const NoMemory&) = default;
 };
 
@@ -133,15 +134,20 @@ constexpr Keeps keeps(const S& scheme) {
 ///   traj.omega *= 2; traj.reset();          // edited by hand: forget the history
 template <class Scalar_, class Memory_ = NoMemory>
 struct Trajectory : State<Scalar_> {
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// The scheme's memory type.
   using Memory = Memory_;
+  /// What the scheme carries from step to step along this trajectory.
   Memory memory{};
 
   Trajectory() = default;
   /// Starts a trajectory at `s` with fresh memory.
   explicit Trajectory(const State<Scalar>& s) : State<Scalar>(s) {}
 
+  /// The state alone.
   State<Scalar>& state() { return *this; }
+  /// The state alone.
   const State<Scalar>& state() const { return *this; }
   /// Forgets the memory (after the state was changed by hand): the next step starts afresh.
   void reset() { memory = Memory{}; }

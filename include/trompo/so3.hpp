@@ -1,5 +1,5 @@
 #pragma once
-// SO3<Scalar>: rotations of 3-space (THEORY §2), stored as a unit quaternion.
+// SO3<Scalar>: rotations of 3-space (docs/theory.md §2), stored as a unit quaternion.
 //
 // Names follow Sophus: static exp/hat/vee, member log/inverse/matrix. Added for the
 // integrators: the right tangent T(x) of exp and its inverse, and exp_matrix(), the
@@ -18,12 +18,18 @@
 
 namespace trompo {
 
+/// A rotation of 3-space, stored as a unit quaternion with non-negative scalar part
+/// (docs/theory.md §2). SO3d and SO3f are the double and float instances.
 template <class Scalar_>
 class SO3 {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// A quaternion of Scalar.
   using Quaternion = Eigen::Quaternion<Scalar>;
 
   /// Default tolerance on ‖RᵀR − I‖ (max norm) for accepting a matrix as a rotation.
@@ -77,7 +83,7 @@ class SO3 {
     return Matrix3::Identity() + a * hat(x) + b * hat_squared(x);
   }
 
-  /// Right tangent T(x) = I − ((1−cos θ)/θ²) x̂ + ((θ − sin θ)/θ³) x̂² (THEORY §2):
+  /// Right tangent T(x) = I − ((1−cos θ)/θ²) x̂ + ((θ − sin θ)/θ³) x̂² (docs/theory.md §2):
   /// exp((x+δ)^) = exp(x̂) exp((T(x)δ)^) + O(δ²). Singular at θ = 2π.
   static Matrix3 right_tangent(const Vector3& x) {
     const Scalar theta = x.norm();
@@ -153,13 +159,20 @@ class SO3 {
     return factor * v;
   }
 
+  /// The composition of two rotations (renormalised).
   SO3 operator*(const SO3& other) const { return SO3(q_ * other.q_, Normalize{}); }
+  /// Composes with `other` on the right.
   SO3& operator*=(const SO3& other) { return *this = *this * other; }
+  /// The rotated vector.
   Vector3 operator*(const Vector3& a) const { return q_ * a; }
+  /// The inverse rotation.
   SO3 inverse() const { return SO3(q_.conjugate(), NoCheck{}); }
+  /// The rotation matrix Λ.
   Matrix3 matrix() const { return q_.toRotationMatrix(); }
+  /// The unit quaternion.
   const Quaternion& unit_quaternion() const { return q_; }
 
+  /// The same rotation in another scalar type.
   template <class NewScalar>
   SO3<NewScalar> cast() const {
     return SO3<NewScalar>::renormalized(q_.template cast<NewScalar>());
@@ -190,7 +203,9 @@ class SO3 {
   Quaternion q_;
 };
 
+/// Rotations in double.
 using SO3d = SO3<double>;
+/// Rotations in float.
 using SO3f = SO3<float>;
 
 }  // namespace trompo

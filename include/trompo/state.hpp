@@ -7,9 +7,12 @@
 
 namespace trompo {
 
+/// The state of a rigid body: its attitude Λ, body angular velocity Ω and time t.
 template <class Scalar_>
 struct State {
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
 
   SO3<Scalar> rotation;                  ///< Λ

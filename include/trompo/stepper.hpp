@@ -24,16 +24,21 @@
 
 namespace trompo {
 
+/// One time step of a scheme on a scene; a failed step leaves state and memory unchanged.
 template <class Scheme, class Scene_>
   requires SchemeFor<Scheme, Scene_>
 class Stepper {
  public:
+  /// The scene type.
   using Scene = Scene_;
+  /// The scalar type of the scene.
   using Scalar = typename Scene::Scalar;
+  /// The scheme's per-trajectory memory (NoMemory unless the scheme declares one).
   using Memory = scheme_memory_t<Scheme, Scene>;
   /// What this stepper steps: the State itself for a memoryless scheme.
   using TrajectoryType = Trajectory<Scalar, Memory>;
 
+  /// The scheme, the scene and the Newton options of every step.
   explicit Stepper(Scheme scheme, Scene scene, NewtonOptions<Scalar> options = {})
       : scheme_(scheme), scene_(std::move(scene)), options_(options) {}
 
@@ -87,9 +92,13 @@ class Stepper {
   /// What the scheme keeps exactly on this scene.
   Keeps keeps() const { return trompo::keeps<Scene>(scheme_); }
 
+  /// The scheme.
   const Scheme& scheme() const { return scheme_; }
+  /// The scene.
   const Scene& scene() const { return scene_; }
+  /// The Newton options.
   const NewtonOptions<Scalar>& options() const { return options_; }
+  /// The Newton options, to modify.
   NewtonOptions<Scalar>& options() { return options_; }
 
  private:

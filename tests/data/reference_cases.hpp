@@ -1,8 +1,8 @@
 #pragma once
-// Reference solutions of the standard cases HT0, HT1, FB1, FB2 (THEORY §8), copied verbatim
-// from shared/reference/{ht0,ht1,fb1,fb2}.csv (closed forms evaluated with 40 significant
-// digits, printed with 17: exact to double precision). The figures are facts; the tests
-// must not read ../shared at build or test time.
+// Reference solutions of the standard cases HT0, HT1, FB1, FB2 (docs/theory.md §8): closed
+// forms evaluated with 40 significant digits, printed with 17 (exact to double precision),
+// computed independently of trompo/exact and copied here verbatim. The tests read nothing
+// outside the repository.
 //
 // Inputs (exact decimals):
 //   HT0: J = diag(5, 5, 1), Mgl = 196.2, E = γ = e3, Λ0 = exp(0.3 ê1),  Ω0 = (0, 0, 50), t = 0, 0.5, …, 10

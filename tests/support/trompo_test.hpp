@@ -1,7 +1,7 @@
 #pragma once
 // Shared helpers of the trompo test suite: a portable seeded RNG, runs that record the
 // invariants, error measures, independent reference solutions (copied from the project's
-// reference set, THEORY §8) and finite-difference Jacobians.
+// reference set, docs/theory.md §8) and finite-difference Jacobians.
 //
 // Every number below that is a fact about the physics (reference attitudes, published
 // figures) is written out here; nothing is computed by the library under test.
@@ -132,7 +132,7 @@ trompo::State<typename Stepper::Scalar> advance(const Stepper& stepper, trompo::
   return s;
 }
 
-// ---- independent reference solutions (THEORY §8, the project's reference set) -----------
+// ---- independent reference solutions (docs/theory.md §8, the project's reference set) -----------
 /// One row of a reference solution: Λ (row-major) and Ω at time t.
 struct Reference {
   double t;

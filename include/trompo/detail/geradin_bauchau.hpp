@@ -1,5 +1,5 @@
 #pragma once
-// Géradin–Bauchau's shared machinery, eqs. (37)–(44), restated as THEORY [T4] and [T5].
+// Géradin–Bauchau's shared machinery, eqs. (37)–(44), restated as [T4] and [T5].
 // The schemes are schemes/geradin_bauchau.hpp ([T4]) and schemes/geradin_bauchau_paper.hpp
 // ([T5]); each picks its GBForm.
 //
@@ -13,7 +13,7 @@
 //                              Exact H, μ, and π when there is no load.
 //   GeradinBauchauPaper  [T5]  the printed eq. (44) (JΩ̃_n read as JΩ_n), scaled by h²/8:
 //                              R(e) = Je − (h/2)JΩ_n + e × (Je + (h/2)h_r) − (h²/4) τ_m
-//                              Exact H, but μ is NOT conserved (THEORY §4): kept to
+//                              Exact H, but μ is NOT conserved (docs/theory.md §4): kept to
 //                              reproduce the paper.
 #include <Eigen/Core>
 #include <cmath>

@@ -1,15 +1,15 @@
 #pragma once
-// Small-angle coefficients of the rotation formulas (THEORY §2), evaluated without 0/0.
+// Small-angle coefficients of the rotation formulas (docs/theory.md §2), evaluated without 0/0.
 //
 // Every coefficient below is an even function of θ. Below `small_angle<Scalar>::theta`
 // it is taken from its Taylor series in θ² (terms through θ¹², see polynomial()); above, from
-// the closed form. The two branches are tied together as follows (STYLE item 5):
+// the closed form. The two branches are tied together as follows:
 //   - truncation: the first omitted term is below θ¹⁴/14! ≈ 1e-21 relative at θ = 1/4,
 //     under the epsilon of every Scalar we support (float, double, 80-bit long double);
 //   - cancellation: the worst closed form, (θ − sin θ)/θ³, loses about 6ε/θ² relative,
 //     i.e. ≤ 100ε just above θ = 1/4.
 // So both branches agree to ~1e-14 relative in double at the switch, which keeps the
-// Newton tangents (THEORY [T3]) smooth across it.
+// Newton tangents ([T3]) smooth across it.
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -50,7 +50,7 @@ Scalar sinc(Scalar theta) {
   return sin(theta) / theta;
 }
 
-/// (1 − cos θ) / θ²  (the "b" coefficient of exp, eq. (8), and of T, THEORY §2).
+/// (1 − cos θ) / θ²  (the "b" coefficient of exp, eq. (8), and of T, docs/theory.md §2).
 template <class Scalar>
 Scalar one_minus_cos_over_sq(Scalar theta) {
   using std::cos;
@@ -61,7 +61,7 @@ Scalar one_minus_cos_over_sq(Scalar theta) {
   return (Scalar(1) - cos(theta)) / (theta * theta);
 }
 
-/// (θ − sin θ) / θ³  (the "c" coefficient of the right tangent T, THEORY §2).
+/// (θ − sin θ) / θ³  (the "c" coefficient of the right tangent T, docs/theory.md §2).
 template <class Scalar>
 Scalar theta_minus_sin_over_cube(Scalar theta) {
   using std::sin;
@@ -121,7 +121,7 @@ Scalar kappa(Scalar theta) {
   return sinc(theta / 2);
 }
 
-/// 1 − κ(θ), without cancellation (needed by the collocation root, THEORY [T2]).
+/// 1 − κ(θ), without cancellation (needed by the collocation root, [T2]).
 template <class Scalar>
 Scalar one_minus_kappa(Scalar theta) {
   const Scalar x = theta * theta / 4;  // (θ/2)²
@@ -132,7 +132,7 @@ Scalar one_minus_kappa(Scalar theta) {
   return Scalar(1) - kappa(theta);
 }
 
-/// κ′(θ) / θ = ((θ/2) cos(θ/2) − sin(θ/2)) / (θ³/2), about −1/12 near 0 (THEORY [T3]).
+/// κ′(θ) / θ = ((θ/2) cos(θ/2) − sin(θ/2)) / (θ³/2), about −1/12 near 0 ([T3]).
 /// Returned divided by θ so that ∇κ = (κ′/θ) Θ has no 0/0.
 template <class Scalar>
 Scalar kappa_prime_over_theta(Scalar theta) {

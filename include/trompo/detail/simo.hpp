@@ -1,11 +1,11 @@
 #pragma once
-// The Simo family's shared machinery, eqs. (9)–(11), (17)–(19), restated as THEORY [T1]–[T3].
+// The Simo family's shared machinery, eqs. (9)–(11), (17)–(19), restated as [T1]–[T3].
 // The schemes themselves (their parameters and traits) are in schemes/simo_alpha.hpp,
 // schemes/simo_collocation.hpp and schemes/simo_kappa.hpp; each picks its SimoVariant.
 //
 // Unknown: Θ, the incremental rotation vector in the body frame of step n, with
 //   Ω_{n+1} = 2Θ/h − Ω_n,   Λ_{n+1} = Λ_n exp(Θ̂),   Λ_{n+ξ} = Λ_n exp(ξΘ̂).
-// Residual [T1], with the effects of the scene (THEORY §5):
+// Residual [T1], with the effects of the scene (docs/theory.md §5):
 //   R(Θ) = exp(Θ̂) Π_{n+1} − Π_n − h κ τ_c(Λ_{n+α}) − h τ_a(Λ_{n+½}, Θ/h)
 // where τ_c is the conservative torque (gravity), τ_a the applied torques, both in frame
 // n, and Π = JΩ + h_r. The three schemes differ only in α and κ:
@@ -14,7 +14,7 @@
 //   SimoKappa        α = ½, κ = sin(θ/2)/(θ/2), (19)   (energy exact)
 // For potentials linear in Λ (uniform gravity) α of collocation and κ have closed forms;
 // for a general V (effects/potential.hpp) collocation solves (17) for α numerically and
-// Simo-κ projects with κ = (V(Λ_{n+1}) − V(Λ_n))/f′(½) (THEORY §3): both stay exact.
+// Simo-κ projects with κ = (V(Λ_{n+1}) − V(Λ_n))/f′(½) (docs/theory.md §3): both stay exact.
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -64,7 +64,7 @@ Scalar collocation_alpha(Scalar theta, Scalar B, Scalar C) {
   return Scalar(0.5) + s;
 }
 
-/// The collocation root for a general potential (THEORY §3): an α ∈ [0,1] with
+/// The collocation root for a general potential (docs/theory.md §3): an α ∈ [0,1] with
 /// φ(α) = f′(α) − (f(1) − f(0)) = 0, the one nearest `center`. `phi(ξ, dphi)` returns φ(ξ)
 /// and, if dphi is not null, sets *dphi = φ′(ξ) = f″(ξ); |φ| ≤ tol counts as 0 (round-off).
 /// The mean-value theorem puts a root in (0,1); there may be two or more. A bracket is
@@ -178,7 +178,7 @@ class SimoResidual {
     const Scalar h = d_.h;
     const Matrix3& J = scene.body().inertia();
     const Vector3 Theta = h * d_.omega_n + y;
-    // exp(Θ̂) = I + aΘ̂ + bΘ̂² (8), T(Θ) = I − bΘ̂ + cΘ̂² (THEORY §2), κ (19) and the half
+    // exp(Θ̂) = I + aΘ̂ + bΘ̂² (8), T(Θ) = I − bΘ̂ + cΘ̂² (docs/theory.md §2), κ (19) and the half
     // rotation exp(Θ̂/2) share θ and the half-angle pair (κ, cos θ/2): computed once
     // here (SO3::exp_matrix, right_tangent and kappa would each redo them).
     const Scalar theta = Theta.norm();
@@ -212,7 +212,7 @@ class SimoResidual {
       if (!add_conservative(Theta, ha, Q, T, R, K, scale)) return false;  // general V: no projection
     }
     if constexpr (Scene::has_applied_torque) {
-      // τ_a at Λ_{n+½}, Ω_m = Θ/h (THEORY §5); ∂/∂Θ through w = ½T(Θ/2)δΘ and Ω_m.
+      // τ_a at Λ_{n+½}, Ω_m = Θ/h (docs/theory.md §5); ∂/∂Θ through w = ½T(Θ/2)δΘ and Ω_m.
       const Vector3 half = Theta / Scalar(2);
       Matrix3 d_rot, d_omega;
       const Vector3 tau = scene.applied_torque(d_.caches, half_rotation(Theta, ha), Theta / h,
@@ -257,7 +257,7 @@ class SimoResidual {
       kappa = ha.kappa;                                                // (19)
     }
 
-    // General potential (THEORY §3): f(ξ) = V(Λ_n exp(ξΘ̂)), f′(ξ) = −Θ·τ(ξΘ), and the
+    // General potential (docs/theory.md §3): f(ξ) = V(Λ_n exp(ξΘ̂)), f′(ξ) = −Θ·τ(ξΘ), and the
     // energy change f(1) − f(0) that the projections must reproduce.
     [[maybe_unused]] Scalar dV(0);          // f(1) − f(0)
     [[maybe_unused]] Scalar V_scale(0);     // |V_n| + |V_{n+1}|: the round-off of dV is ~ε·V_scale
@@ -311,7 +311,7 @@ class SimoResidual {
     Matrix3 J_alpha, T_alpha;
     const Vector3 tau = scene.conservative_torque(d_.caches, R_alpha, need_J ? &J_alpha : nullptr);
     if (K) {
-      // T(Θ/2) = I − b_½ Θ̂/2 + c_½ (Θ̂/2)² (THEORY §2), b_½ from the half-angle pair.
+      // T(Θ/2) = I − b_½ Θ̂/2 + c_½ (Θ̂/2)² (docs/theory.md §2), b_½ from the half-angle pair.
       const Vector3 x = Theta / Scalar(2);
       T_alpha = alpha == Scalar(0.5) ? Matrix3(Matrix3::Identity() - ha.half_one_minus_cos_over_sq() * G::hat(x) +
                                                detail::theta_minus_sin_over_cube(theta / Scalar(2)) * G::hat_squared(x))
@@ -325,7 +325,7 @@ class SimoResidual {
 
     [[maybe_unused]] Vector3 grad_kappa = Vector3::Zero();
     if constexpr (V == SimoVariant::kappa && !Scene::potentials_linear) {
-      // κ = (f(1) − f(0)) / f′(½), f′(½) = −Θ·τ(½) (THEORY §3). κ = 1 when that already
+      // κ = (f(1) − f(0)) / f′(½), f′(½) = −Θ·τ(½) (docs/theory.md §3). κ = 1 when that already
       // balances the energy to round-off (θ → 0, or f‴ negligible), which also keeps the
       // ratio of two round-off-level numbers out of κ. The projection is singular where
       // f′(½) → 0 while f(1) − f(0) − f′(½) = f‴/24 + … does not (a step whose midpoint

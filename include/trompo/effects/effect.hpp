@@ -1,5 +1,5 @@
 #pragma once
-// The effect concept: what a scene may add to the free rigid body (THEORY §1, §5).
+// The effect concept: what a scene may add to the free rigid body (docs/theory.md §1, §5).
 //
 // An effect is a small value type with a `kind` tag and a per-step `Cache`, computed
 // once per step from the attitude Λ_n at the start of the step and the mid time:

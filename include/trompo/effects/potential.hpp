@@ -1,5 +1,5 @@
 #pragma once
-// A general conservative potential V(Λ) given by the user (THEORY §1, §3).
+// A general conservative potential V(Λ) given by the user (docs/theory.md §1, §3).
 //
 //   // V = k (γ·ΛE)², with body gradient g = 2k (γ·ΛE) E × Λᵀγ
 //   auto V = [=](const Eigen::Matrix3d& L) { const double s = up.dot(L * E); return k * s * s; };
@@ -19,7 +19,7 @@
 // root [T2] do not apply: SimoKappa projects with κ = (V(Λ_{n+1}) − V(Λ_n))/f′(½) and
 // SimoCollocation solves f′(α) = f(1) − f(0) for α numerically (schemes/simo.hpp); both
 // keep H exact. Géradin–Bauchau's mid-point torque does not: its energy error is O(h³)
-// per step (measured in tests/test_effects.cpp, README "Scenes and effects").
+// per step (measured in tests/test_effects.cpp, docs/scenes.md).
 //
 // The callables are template parameters stored by value: no std::function, no allocation.
 #include <Eigen/Core>
@@ -36,26 +36,37 @@ namespace trompo {
 /// Marks a Potential without a Hessian callable (central differences of g are used).
 struct NoHessian {};
 
+/// A general conservative potential V(Λ), given by callables: V(Λ), its body gradient g(Λ)
+/// (dV = g·w for Λ exp(ŵ)) and optionally its Hessian ∂g/∂w (else central differences of g).
+/// Build it with make_potential(); docs/theory.md §3, §5.
 template <class Scalar_, class V, class G, class H = NoHessian>
 class Potential {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// A conservative effect: enters H (effect.hpp).
   using kind = potential_kind;
   /// A general V: the closed forms of (19) and [T2] do not hold (schemes/simo.hpp).
   static constexpr bool linear_in_rotation = false;
+  /// Whether a Hessian callable was given.
   static constexpr bool has_hessian = !std::is_same_v<H, NoHessian>;
 
   static_assert(std::is_invocable_v<const V&, const Matrix3&>, "Potential: V must be callable as V(Λ)");
   static_assert(std::is_invocable_v<const G&, const Matrix3&>, "Potential: g must be callable as g(Λ)");
 
+  /// From the callables V(Λ), g(Λ) and, optionally, the Hessian.
   Potential(V v, G g, H hess = H{}) : v_(std::move(v)), g_(std::move(g)), h_(std::move(hess)) {}
 
   /// Λ_n, the start of the step; the potential is evaluated at Λ_n R.
   struct Cache {
+    /// Λ_n.
     Matrix3 Lambda_n;
   };
+  /// Keeps Λ_n for the step.
   Cache cache(const Matrix3& Lambda_n, Scalar /*t_mid*/) const { return {Lambda_n}; }
 
   /// V(Λ_n R)

@@ -18,12 +18,18 @@
 
 namespace trompo {
 
+/// A gyrostat rotor: a constant internal angular momentum h_r in body axes, so that
+/// Π = JΩ + h_r (docs/theory.md §5). H and π = Λ(JΩ + h_r) are kept by the exact schemes.
 template <class Scalar_>
 class Rotor {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// An internal momentum (effect.hpp).
   using kind = rotor_kind;
 
   /// h_r: the rotor's angular momentum relative to the body, in body axes (finite).
@@ -36,6 +42,7 @@ class Rotor {
 
   /// A rotor needs no per-step data.
   struct Cache {};
+  /// Nothing to prepare per step.
   Cache cache(const Matrix3& /*Lambda_n*/, Scalar /*t_mid*/) const { return {}; }
 
  private:

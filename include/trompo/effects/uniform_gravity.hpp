@@ -8,14 +8,19 @@
 
 namespace trompo {
 
+/// Uniform gravity: V(Λ) = Mgl γ·ΛE, the heavy top's potential (docs/theory.md §1).
 template <class Scalar_>
 class UniformGravity {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// A conservative effect: enters H (effect.hpp).
   using kind = potential_kind;
-  /// V is linear in Λ, so f(ξ) = V(Λ_n exp(ξΘ̂)) = A + B cos ξθ + C sin ξθ (THEORY [T2]).
+  /// V is linear in Λ, so f(ξ) = V(Λ_n exp(ξΘ̂)) = A + B cos ξθ + C sin ξθ ([T2]).
   static constexpr bool linear_in_rotation = true;
 
   /// Mgl = M g l (any finite value; 0 still costs the arithmetic: a free body is a scene
@@ -28,14 +33,19 @@ class UniformGravity {
     load_ = -Mgl_ * up_;  // 𝐠 = −Mgl γ, the paper's load vector
   }
 
+  /// M g l.
   Scalar Mgl() const { return Mgl_; }
+  /// E, the unit body vector from O towards the centre of mass.
   const Vector3& com_direction() const { return E_; }
+  /// γ, the spatial unit vector pointing up.
   const Vector3& up() const { return up_; }
 
   /// b = Λ_nᵀ𝐠, the load in the body frame of step n ([T1]).
   struct Cache {
+    /// Λ_nᵀ𝐠.
     Vector3 b;
   };
+  /// b = Λ_nᵀ𝐠 for the step.
   Cache cache(const Matrix3& Lambda_n, Scalar /*t_mid*/) const { return {Lambda_n.transpose() * load_}; }
 
   /// V(Λ_n R) = Mgl γ·Λ_n R E = −b·(R E)

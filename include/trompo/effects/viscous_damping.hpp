@@ -1,5 +1,5 @@
 #pragma once
-// Viscous damping: the body torque T = −c Ω, taken at the step's mid velocity (THEORY §5).
+// Viscous damping: the body torque T = −c Ω, taken at the step's mid velocity (docs/theory.md §5).
 //
 //   Scene<double, ViscousDamping<double>> scene(body, ViscousDamping<double>(0.1));
 //
@@ -17,12 +17,18 @@
 
 namespace trompo {
 
+/// Viscous damping: the body torque T = −cΩ, taken at the step's mid velocity, so that
+/// H_{n+1} − H_n = −c h |Ω_m|² (docs/theory.md §5).
 template <class Scalar_>
 class ViscousDamping {
  public:
+  /// The scalar type.
   using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// An applied torque (effect.hpp).
   using kind = torque_kind;
 
   /// c: the damping coefficient (torque per angular velocity). Any finite value; c ≥ 0
@@ -31,10 +37,12 @@ class ViscousDamping {
     if (!std::isfinite(static_cast<double>(c))) detail::fail("damping: non-finite coefficient c = ", c);
   }
 
+  /// c.
   Scalar coefficient() const { return c_; }
 
   /// Nothing to precompute per step.
   struct Cache {};
+  /// Nothing to prepare per step.
   Cache cache(const Matrix3& /*Lambda_n*/, Scalar /*t_mid*/) const { return {}; }
 
   /// T_m = −c Ω_m (§5)

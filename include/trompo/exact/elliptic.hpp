@@ -16,6 +16,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "trompo/errors.hpp"
+
 namespace trompo::exact {
 namespace detail {
 
@@ -289,13 +291,15 @@ inline Eigen::Matrix3d frame_with_third_axis(const Eigen::Vector3d& n) {
   return R;
 }
 
-/// Throws std::invalid_argument unless Λ is finite and a proper rotation to 1e-10.
+/// Throws trompo::invalid_input unless Λ is finite and a proper rotation to 1e-10.
 inline void check_rotation(const Eigen::Matrix3d& L, const char* who) {
-  if (!L.allFinite()) throw std::invalid_argument(std::string(who) + ": Lambda0 is not finite");
+  if (!trompo::detail::all_finite(L))
+    trompo::detail::fail(who, ": Lambda0 must be finite, got ", trompo::detail::to_text(L));
   const double err = (L.transpose() * L - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (err > 1e-10 || L.determinant() <= 0.0)
-    throw std::invalid_argument(std::string(who) + ": Lambda0 is not a rotation (|ΛᵀΛ − I| = " +
-                                std::to_string(err) + ")");
+  if (err > 1e-10)
+    trompo::detail::fail(who, ": Lambda0 is not a rotation, |LambdaT Lambda - I| = ", err);
+  if (L.determinant() <= 0.0)
+    trompo::detail::fail(who, ": Lambda0 is not a rotation, determinant ", L.determinant());
 }
 
 /// Unit quaternion (w, x, y, z) = (Re α, Re β, Im β, Im α) as a rotation matrix.

@@ -1,5 +1,5 @@
 #pragma once
-// Exact solution of the torque-free rigid body (THEORY §1, §8: FB1, FB2).
+// Exact solution of the torque-free rigid body (docs/theory.md §1, §8: FB1, FB2).
 //
 //   dΛ/dt = Λ Ω̂,   J dΩ/dt + Ω × JΩ = 0,   J = diag(J1, J2, J3) about the centre of mass
 //   (or a fixed point). Conserved: π = ΛJΩ (spatial momentum), 2T = Ω·JΩ, G = |π|.
@@ -48,19 +48,24 @@
 #include <stdexcept>
 #include <string>
 
+#include "trompo/errors.hpp"
+
 namespace trompo::exact {
 
 /// Torque-free rigid body with inertia diag(J1, J2, J3) (any order, equal moments allowed).
 class FreeBody {
  public:
   /// J: principal moments (all > 0); Lambda0: initial rotation body → space;
-  /// Omega0: initial body angular velocity. Throws std::invalid_argument on J ≤ 0,
+  /// Omega0: initial body angular velocity. Throws trompo::invalid_input (naming the field and
+  /// the value) on J ≤ 0,
   /// non-finite input or a Lambda0 that is not a rotation.
   FreeBody(const Eigen::Vector3d& J, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0)
       : J_(J), L0_(Lambda0), W0_(Omega0) {
     if (!J.allFinite() || !(J.minCoeff() > 0.0))
-      throw std::invalid_argument("FreeBody: the moments of inertia J must be finite and > 0");
-    if (!Omega0.allFinite()) throw std::invalid_argument("FreeBody: Omega0 is not finite");
+      trompo::detail::fail("FreeBody: the moments of inertia J must be finite and > 0, got ",
+                           trompo::detail::to_text(J));
+    if (!trompo::detail::all_finite(Omega0))
+      trompo::detail::fail("FreeBody: Omega0 must be finite, got ", trompo::detail::to_text(Omega0));
     detail::check_rotation(Lambda0, "FreeBody");
 
     const Eigen::Vector3d Pi0 = J.cwiseProduct(Omega0);  // Π0 = J Ω0

@@ -1,5 +1,5 @@
 #pragma once
-// Exact solution of the Lagrange top (THEORY §1, §8: HT0, HT1).
+// Exact solution of the Lagrange top (docs/theory.md §1, §8: HT0, HT1).
 //
 // Symmetric heavy top about a fixed point O: J = diag(A, A, C) in body axes, centre of
 // mass on body axis 3 (E = e3), V = Mgl γ·ΛE, γ the spatial unit "up" vector:
@@ -24,7 +24,7 @@
 // precession (k → 0), the sleeping top, a top at rest upright or hanging and the plane
 // pendulum are all handled by the same formulas. Ω is recovered from q and q̇ = ½ q ⊗ (0, Ω).
 //
-// Pitfalls handled (THEORY §8): modulus vs parameter (we carry m = k² AND 1 − m), amplitude
+// Pitfalls handled (docs/theory.md §8): modulus vs parameter (we carry m = k² AND 1 − m), amplitude
 // unwrapped across periods (2jK and 2j Π(n|m) added for τ = 2Kj + r), roots sorted by
 // construction (bracketed, safeguarded Newton).
 #include <Eigen/Core>
@@ -35,6 +35,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "trompo/errors.hpp"
 
 #include "trompo/exact/elliptic.hpp"  // detail::Elliptic (Jacobi functions, Carlson integrals), frames
 
@@ -88,17 +90,18 @@ class LagrangeTop {
   /// Symmetric heavy top about a fixed point O: inertia diag(A, A, C) in body axes, centre
   /// of mass on body axis 3 (E = e3), V = Mgl γ·(ΛE), γ = spatial "up" direction
   /// (normalised here, as in UniformGravity). Mgl may be 0 (free symmetric body) or < 0
-  /// (hanging top). Throws std::invalid_argument for A ≤ 0, C ≤ 0, non-finite input, γ = 0,
+  /// (hanging top). Throws trompo::invalid_input (naming the field and the value) for A ≤ 0, C ≤ 0, non-finite input, γ = 0,
   /// or a Lambda0 that is not a rotation.
   LagrangeTop(double A, double C, double Mgl, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0,
               const Eigen::Vector3d& gamma = Eigen::Vector3d::UnitZ())
       : Om3_(Omega0(2)) {
-    if (!(std::isfinite(A) && A > 0.0)) throw std::invalid_argument("LagrangeTop: A must be finite and > 0");
-    if (!(std::isfinite(C) && C > 0.0)) throw std::invalid_argument("LagrangeTop: C must be finite and > 0");
-    if (!std::isfinite(Mgl)) throw std::invalid_argument("LagrangeTop: Mgl must be finite");
-    if (!Omega0.allFinite()) throw std::invalid_argument("LagrangeTop: Omega0 is not finite");
-    if (!gamma.allFinite() || !(gamma.norm() > 0.0))
-      throw std::invalid_argument("LagrangeTop: gamma must be a finite non-zero vector");
+    if (!(std::isfinite(A) && A > 0.0)) trompo::detail::fail("LagrangeTop: A must be finite and > 0, got ", A);
+    if (!(std::isfinite(C) && C > 0.0)) trompo::detail::fail("LagrangeTop: C must be finite and > 0, got ", C);
+    if (!std::isfinite(Mgl)) trompo::detail::fail("LagrangeTop: Mgl must be finite, got ", Mgl);
+    if (!trompo::detail::all_finite(Omega0))
+      trompo::detail::fail("LagrangeTop: Omega0 must be finite, got ", trompo::detail::to_text(Omega0));
+    if (!trompo::detail::all_finite(gamma) || !(gamma.norm() > 0.0))
+      trompo::detail::fail("LagrangeTop: gamma must be finite and non-zero, got ", trompo::detail::to_text(gamma));
     detail::check_rotation(Lambda0, "LagrangeTop");
     setup(A, C, Mgl, Lambda0, Omega0, gamma.normalized());
   }

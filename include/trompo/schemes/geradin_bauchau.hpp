@@ -1,5 +1,5 @@
 #pragma once
-// Géradin–Bauchau, momentum-consistent half-rotation form, THEORY [T4]: Newton on the
+// Géradin–Bauchau, momentum-consistent half-rotation form, [T4]: Newton on the
 // vector part e of the increment's quaternion, the torques at Λ_{n+½} in the mid frame.
 // Keeps μ, and π on the free body; H exactly for potentials linear in Λ (uniform
 // gravity), not for a general V (the mid-point torque is not its discrete gradient).
@@ -11,9 +11,13 @@ namespace trompo {
 
 /// Géradin–Bauchau, momentum-consistent half-rotation form [T4].
 struct GeradinBauchau {
+  /// "geradin-bauchau".
   static constexpr const char* name = "geradin-bauchau";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H (potentials linear in Λ), μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{
       .energy = Scene::potentials_linear, .momentum_map = true, .spatial_momentum = Scene::is_free};

@@ -1,7 +1,7 @@
 #pragma once
-// Géradin–Bauchau as printed in the paper, eq. (44), THEORY [T5]: energy exact for
+// Géradin–Bauchau as printed in the paper, eq. (44), [T5]: energy exact for
 // potentials linear in Λ, but the momentum map μ (and π on the free body) is NOT kept
-// (THEORY §4). Kept to reproduce the paper; symmetric, order 2.
+// (docs/theory.md §4). Kept to reproduce the paper; symmetric, order 2.
 #include "trompo/detail/geradin_bauchau.hpp"
 #include "trompo/scheme.hpp"
 
@@ -9,9 +9,13 @@ namespace trompo {
 
 /// The paper's printed eq. (44), [T5]: energy exact, momentum map drifts.
 struct GeradinBauchauPaper {
+  /// "geradin-bauchau-paper".
   static constexpr const char* name = "geradin-bauchau-paper";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H only (potentials linear in Λ); μ and π drift.
   template <class Scene>
   static constexpr Keeps keeps{.energy = Scene::potentials_linear};
 

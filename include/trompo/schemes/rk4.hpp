@@ -62,12 +62,17 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
 
 /// Classical RK4 on (q, Ω): order 4, keeps nothing exactly, not symmetric (not composable).
 struct RK4 {
+  /// "rk4".
   static constexpr const char* name = "rk4";
+  /// Order of accuracy.
   static constexpr int order = 4;
+  /// Not symmetric: may not be composed.
   static constexpr bool symmetric = false;
+  /// Keeps nothing exactly.
   template <class Scene>
   static constexpr Keeps keeps{};
 
+  /// One explicit step (the scheme contract of scheme.hpp; the Newton options are unused).
   template <class Scene>
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h, const NewtonOptions<typename Scene::Scalar>&,

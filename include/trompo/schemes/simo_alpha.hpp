@@ -1,5 +1,5 @@
 #pragma once
-// Simo-α: the midpoint family with the conservative torque at Λ_{n+α}, THEORY [T1] with
+// Simo-α: the midpoint family with the conservative torque at Λ_{n+α}, [T1] with
 // κ = 1 and α fixed in [0, 1]. α = ½ is Simo–Wong's midpoint rule: symmetric, order 2.
 // Keeps μ exactly (the torque of an axisymmetric load has no γ component at any α), and
 // on the free body H and π too (the load term vanishes and every α is the midpoint).
@@ -11,19 +11,25 @@ namespace trompo {
 
 /// Simo-α: midpoint family with the torque at Λ_{n+α}; μ exact, H to O(h²).
 struct SimoAlpha {
+  /// α ∈ [0, 1]: the conservative torque is taken at Λ_{n+α}.
   double alpha = 0.5;
   SimoAlpha() = default;
+  /// Throws invalid_input unless α ∈ [0, 1].
   explicit SimoAlpha(double a) : alpha(a) {
     if (!(a >= 0.0 && a <= 1.0)) detail::fail("simo-alpha: alpha must be in [0, 1], got ", a);
   }
 
+  /// "simo-alpha".
   static constexpr const char* name = "simo-alpha";
   static constexpr int order = 2;         ///< at α = ½; 1 otherwise (order_of_accuracy)
   static constexpr bool symmetric = true;  ///< at α = ½ only (is_symmetric)
+  /// Keeps μ; H and π on the free body.
   template <class Scene>
   static constexpr Keeps keeps{.energy = Scene::is_free, .momentum_map = true, .spatial_momentum = Scene::is_free};
 
+  /// Symmetric only for α = ½.
   bool is_symmetric() const { return alpha == 0.5; }
+  /// Order 2 for α = ½, 1 otherwise.
   int order_of_accuracy() const { return alpha == 0.5 ? 2 : 1; }
 
   /// One step: Newton on [T1] from the predictor, then (9)–(10).

@@ -1,5 +1,5 @@
 #pragma once
-// Simo collocation: THEORY [T1] with κ = 1 and α solved at every step so that the energy
+// Simo collocation: [T1] with κ = 1 and α solved at every step so that the energy
 // balance is exact, (17)/[T2] (closed form for potentials linear in Λ, a safeguarded
 // root search for a general V). Keeps H, μ and, on the free body, π; symmetric, order 2.
 // Composed, it reaches orders 4 and 6 only where α(Θ) is smooth (composition.hpp).
@@ -10,9 +10,13 @@ namespace trompo {
 
 /// Simo collocation: α solved each step so that the energy balance is exact, [T2].
 struct SimoCollocation {
+  /// "simo-collocation".
   static constexpr const char* name = "simo-collocation";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H, μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
 

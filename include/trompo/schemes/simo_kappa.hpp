@@ -1,7 +1,7 @@
 #pragma once
-// Simo-κ: THEORY [T1] with α = ½ and the conservative torque scaled by
+// Simo-κ: [T1] with α = ½ and the conservative torque scaled by
 // κ = sin(θ/2)/(θ/2), (19); for a general V, κ is the projection that balances the
-// energy exactly (THEORY §3). Keeps H, μ and, on the free body, π; symmetric, order 2:
+// energy exactly (docs/theory.md §3). Keeps H, μ and, on the free body, π; symmetric, order 2:
 // the library's default energy-momentum scheme.
 #include "trompo/detail/simo.hpp"
 #include "trompo/scheme.hpp"
@@ -10,9 +10,13 @@ namespace trompo {
 
 /// Simo-κ: α = ½ and the conservative torque scaled by κ(θ), (19); energy exact.
 struct SimoKappa {
+  /// "simo-kappa".
   static constexpr const char* name = "simo-kappa";
+  /// Order of accuracy.
   static constexpr int order = 2;
+  /// Symmetric: may be composed.
   static constexpr bool symmetric = true;
+  /// Keeps H, μ and π (free body).
   template <class Scene>
   static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
 

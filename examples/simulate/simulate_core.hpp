@@ -504,10 +504,11 @@ int simulate(const Config& c, Out& out) {
 
 // ---- ensembles ---------------------------------------------------------------------------
 
-/// The members of an ensemble: initial rotation vectors and body angular velocities, and
-/// optionally a per-member mgl and inertia (empty: the Config's for every member).
+/// The members of an ensemble: initial attitudes (Λ0 = exp(R^) for a rotation vector R, as
+/// --rotation) and body angular velocities, and optionally a per-member mgl and inertia
+/// (empty: the Config's for every member).
 struct EnsembleInput {
-  std::vector<V3> rotation;
+  std::vector<trompo::SO3d> rotation;
   std::vector<V3> omega;
   std::vector<double> mgl;
   std::vector<M3> inertia;
@@ -564,8 +565,7 @@ SceneT member_scene(const Config& c, const EnsembleInput& in, std::size_t i) {
 inline void validate_member(const Config& c, const EnsembleInput& in, std::size_t i) {
   using namespace trompo;
   State<double> s;
-  if (!detail::all_finite(in.rotation[i])) throw invalid_input("rotation: not finite " + detail::to_text(in.rotation[i]));
-  s.rotation = SO3d::exp(in.rotation[i]);
+  s.rotation = in.rotation[i];
   s.omega = in.omega[i];
   s.validate();
   const RigidBody<double> body = member_body(c, in, i);
@@ -592,7 +592,7 @@ int run(const StepperT& stepper, const Config& c, const trompo::State<double>&, 
   const std::size_t n = in.size();
   e.states.assign(n, trompo::State<double>{});
   for (std::size_t i = 0; i < n; ++i) {
-    e.states[i].rotation = trompo::SO3d::exp(in.rotation[i]);
+    e.states[i].rotation = in.rotation[i];
     e.states[i].omega = in.omega[i];
   }
   const trompo::EnsembleOptions options{.threads = c.threads};
@@ -681,7 +681,7 @@ inline EnsembleInput read_ensemble(const Config& c) {
       const auto k = static_cast<std::size_t>(column_of[f]);
       v[k] = parse_number(where() + known[k], fields[f]);
     }
-    in.rotation.emplace_back(v[0], v[1], v[2]);
+    in.rotation.push_back(trompo::SO3d::exp(V3(v[0], v[1], v[2])));
     in.omega.emplace_back(v[3], v[4], v[5]);
     if (seen[6]) in.mgl.push_back(v[6]);
     if (seen[7]) {

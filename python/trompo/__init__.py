@@ -50,6 +50,8 @@ def _number(name, x):
         return x
     if isinstance(x, bool) or not isinstance(x, (numbers.Real, np.number)):
         raise ValueError(f"--{name}: not a number: {x!r}")
+    if isinstance(x, (numbers.Integral, np.integer)):
+        return str(int(x))
     # repr of a float is its shortest round-trip form: strtod gives back the same double.
     return repr(float(x))
 

@@ -111,9 +111,15 @@ def test_bad_arguments_raise_the_cli_message(flags, kwargs):
     assert str(e.value) == message
 
 
-def test_unknown_keyword_is_a_type_error():
+def test_other_keywords_are_passed_as_flags():
+    """A keyword simulate() does not list goes to the CLI's parser as --name (so flags the
+    CLI gains work from Python at once); an unknown one is the CLI's error."""
+    rc, rows, err = run_cli(["--case", "ht1", "--spin-rate", "3"])
+    with pytest.raises(ValueError) as e:
+        trompo.simulate(case="ht1", spin_rate=3)
+    assert rc == 2 and str(e.value) == err.strip().removeprefix("trompo-simulate: ")
     with pytest.raises(TypeError):
-        trompo.simulate(case="ht1", spin=3)
+        trompo.simulate(case="ht1", csv="out.csv")
 
 
 def test_step_failed_carries_the_rows_up_to_the_last_good_state():

@@ -88,14 +88,21 @@ def _flags(kwargs):
             flags[flag] = _number(name.replace("_", "-"), value)
         elif name in _VECTORS:
             flags[flag] = _vector(name, value, _VECTORS[name])
+        elif isinstance(value, str):
+            # Any other keyword is passed on as the flag of that name: a flag the CLI gains
+            # is usable from Python at once, and an unknown one is the CLI's error.
+            flags[flag] = value
+        elif isinstance(value, (numbers.Real, np.number)):
+            flags[flag] = _number(name.replace("_", "-"), value)
         else:
-            raise TypeError(f"unexpected keyword argument {name!r}")
+            a = np.asarray(value, dtype=float).ravel()
+            flags[flag] = ",".join(repr(float(v)) for v in a)
     return flags
 
 
 def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None, inertia=None, mgl=None,
              com=None, up=None, rotation=None, omega=None, dt=None, t_end=None, every=None, damping=None,
-             torque=None, space_torque=None, rotor=None):
+             torque=None, space_torque=None, rotor=None, **flags):
     """One trajectory, as ``trompo-simulate`` with the same flags (``t_end`` is ``--t-end``).
 
     Returns a dict of NumPy arrays keyed like the CSV header: ``t`` (n,), ``R`` (n,3,3)
@@ -105,11 +112,16 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     Raises ValueError with the CLI's message on bad arguments, and StepFailed (carrying
     the rows up to the last good state) when a step fails beyond recovery. Warns with
     Recovered when sub-stepping was needed. ``inertia`` is J11,J22,J33, six numbers
-    J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix.
+    J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
+    is passed as the CLI flag ``--name`` (``_`` becomes ``-``): the CLI's own parser
+    accepts it or raises its ValueError (``unknown option '--name' (see --help)``).
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, inertia=inertia,
                   mgl=mgl, com=com, up=up, rotation=rotation, omega=omega, dt=dt, t_end=t_end, every=every,
-                  damping=damping, torque=torque, space_torque=space_torque, rotor=rotor)
+                  damping=damping, torque=torque, space_torque=space_torque, rotor=rotor, **flags)
+    for name in ("ensemble", "csv", "threads"):
+        if name in flags:
+            raise TypeError(f"simulate: {name!r} is not for simulate (see trompo.ensemble)")
     status, rows, messages = _simulate_flags(_flags(kwargs))
     if status == 3:
         raise StepFailed(messages[-1], rows)
@@ -120,7 +132,7 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
 
 def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
              composition=None, com=None, up=None, dt=None, t_end=None, damping=None, torque=None,
-             space_torque=None, rotor=None, threads=0):
+             space_torque=None, rotor=None, threads=0, **flags):
     """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
 
     ``rotation`` is (N,3) rotation vectors (Λ0 = exp(R^), as ``--rotation``) or (N,3,3)
@@ -134,11 +146,15 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
     ``mu``, ``pi``, ``iterations`` (the member's total Newton iterations) as simulate's
     columns, plus ``ok`` (bool), ``status`` (list of str: "ok" or why the member stopped)
     and ``recovered`` (intervals saved by sub-stepping). A failed member does not stop
-    the others and raises nothing: its row is its last good state.
+    the others and raises nothing: its row is its last good state. Other keywords are
+    passed on as CLI flags, as for simulate().
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, com=com, up=up,
                   dt=dt, t_end=t_end, damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
-                  threads=threads)
+                  threads=threads, **flags)
+    for name in ("ensemble", "csv", "every"):
+        if name in flags:
+            raise TypeError(f"ensemble: {name!r} is not for ensemble")
     flags = _flags(kwargs)
     flags["--ensemble"] = "(arrays)"
     rotation = np.asarray(rotation, dtype=float)

@@ -11,11 +11,18 @@
 C++ code: the parser, the checks, the dispatch), so its rows are bit-identical to the
 CLI's CSV rows. See docs/python.md.
 """
-import math
 import numbers
+import sys
 import warnings
 
-import numpy as np
+#: The interpreter the extension was built for (CMake's Python3_EXECUTABLE).
+BUILT_FOR = "@Python3_EXECUTABLE@"
+
+try:
+    import numpy as np
+except ImportError as e:  # e.g. a pyenv or venv python3 without Debian's python3-numpy
+    raise ImportError(f"trompo needs NumPy, which {sys.executable} cannot import; the module was built for "
+                      f"{BUILT_FOR} (docs/python.md, 'Which interpreter')") from e
 
 from ._trompo import ensemble_flags as _ensemble_flags
 from ._trompo import simulate_flags as _simulate_flags

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite, from a clean clone on Debian 12 (README quick start, and .ci/run).
 #   1. install missing Debian packages
-#   2. build everything (tests, examples, bench) in Release with warnings as errors; run ctest
+#   2. build everything (tests, examples, bench, the Python module) in Release with warnings
+#      as errors; run ctest (the pytest suite is its python:pytest entry)
 #   3. the API reference (Doxygen, target docs): fails on any warning, e.g. an undocumented
 #      public name in include/trompo
 #   4. a bounded libFuzzer run of the step contract (clang)
@@ -11,7 +12,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
-scripts/deps.sh clang libclang-rt-14-dev doxygen graphviz python3
+# doxygen/graphviz: the API reference; the Python module and its tests (python:pytest in
+# ctest): pybind11, NumPy, pytest, Dask.
+scripts/deps.sh clang libclang-rt-14-dev doxygen graphviz python3 \
+  pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-dask python3-distributed python3-matplotlib python3-dev
 
 echo "== build (Release, -Werror)"
 cmake -S . -B build/test -DCMAKE_BUILD_TYPE=Release -DTROMPO_WARNINGS_AS_ERRORS=ON >/dev/null

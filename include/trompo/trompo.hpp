@@ -9,6 +9,7 @@
 #include "trompo/effects/rotor.hpp"
 #include "trompo/effects/uniform_gravity.hpp"
 #include "trompo/effects/viscous_damping.hpp"
+#include "trompo/ensemble.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/integrate.hpp"
 #include "trompo/newton.hpp"

@@ -1,0 +1,45 @@
+"""Shared helpers of the trompo pytest suite (run by ctest as python:pytest, which sets
+PYTHONPATH to the built module and TROMPO_SIMULATE to the built CLI)."""
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(os.environ.get("TROMPO_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+
+
+def cli_path():
+    path = os.environ.get("TROMPO_SIMULATE")
+    if not path:
+        for cand in (ROOT / "build/examples/trompo-simulate", ROOT / "build/test/examples/trompo-simulate"):
+            if cand.exists():
+                path = str(cand)
+                break
+    if not path:
+        pytest.skip("no trompo-simulate binary (set TROMPO_SIMULATE)")
+    return path
+
+
+def run_cli(args):
+    """(exit status, rows as simulate()'s dict, stderr) of trompo-simulate with `args`."""
+    p = subprocess.run([cli_path(), *args], capture_output=True, text=True)
+    lines = p.stdout.splitlines()
+    rows = None
+    if lines:
+        assert lines[0] == "t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations"
+        # %.17g text parses back to the very same doubles.
+        a = np.array([[float(x) for x in line.split(",")] for line in lines[1:]]).reshape(-1, 19)
+        rows = {"t": a[:, 0], "R": a[:, 1:10].reshape(-1, 3, 3), "W": a[:, 10:13], "H": a[:, 13], "mu": a[:, 14],
+                "pi": a[:, 15:18], "iterations": a[:, 18].astype(np.int64)}
+    return p.returncode, rows, p.stderr
+
+
+def same_rows(a, b):
+    """Bit-identical rows: every array equal element for element, same shapes."""
+    assert set(a) >= {"t", "R", "W", "H", "mu", "pi", "iterations"}
+    for k in ("t", "R", "W", "H", "mu", "pi", "iterations"):
+        assert a[k].shape == b[k].shape, k
+        assert np.array_equal(a[k], b[k]), k
+    return True

@@ -1,0 +1,157 @@
+"""trompo.simulate: bit-identical to trompo-simulate's rows, the invariants the schemes
+keep, the CLI's error messages as ValueError, StepFailed with the rows so far, and the
+GIL released while C++ integrates."""
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import trompo
+from conftest import run_cli, same_rows
+
+# (CLI flags, the same as keywords)
+CASES = [
+    (["--case", "ht1", "--t-end", "1", "--every", "10"], dict(case="ht1", t_end=1, every=10)),
+    (["--case", "ht0", "--scheme", "simo-collocation", "--composition", "suzuki-5", "--t-end", "0.5"],
+     dict(case="ht0", scheme="simo-collocation", composition="suzuki-5", t_end=0.5)),
+    (["--case", "ht2", "--scheme", "geradin-bauchau", "--order", "4", "--t-end", "0.1", "--every", "7"],
+     dict(case="ht2", scheme="geradin-bauchau", order=4, t_end=0.1, every=7)),
+    (["--case", "fb1", "--scheme", "rk4", "--t-end", "3.05"], dict(case="fb1", scheme="rk4", t_end=3.05)),
+    (["--case", "fb2", "--scheme", "simo-alpha", "--alpha", "0.3", "--t-end", "5"],
+     dict(case="fb2", scheme="simo-alpha", alpha=0.3, t_end=5)),
+    (["--case", "ht1", "--scheme", "simo-kappa", "--order", "6", "--t-end", "1", "--every", "50"],
+     dict(case="ht1", order=6, t_end=1, every=50)),
+    (["--inertia", "2,3,4,0.1,0.2,0.3", "--mgl", "7.5", "--com", "0.1,0.2,1", "--up", "0,1,1", "--rotation",
+      "0.3,-0.2,0.1", "--omega", "1,-2,3", "--dt", "0.01", "--t-end", "2", "--scheme", "geradin-bauchau-paper"],
+     dict(inertia=[[2, 0.1, 0.2], [0.1, 3, 0.3], [0.2, 0.3, 4]], mgl=7.5, com=(0.1, 0.2, 1), up=np.array([0, 1, 1]),
+          rotation=[0.3, -0.2, 0.1], omega=[1, -2, 3], dt=0.01, t_end=2, scheme="geradin-bauchau-paper")),
+    (["--case", "ht1", "--damping", "0.5", "--torque", "0.1,0,0", "--space-torque", "0,0.2,0", "--rotor", "0,0,1",
+      "--t-end", "1", "--every", "20"],
+     dict(case="ht1", damping=0.5, torque=[0.1, 0, 0], space_torque=[0, 0.2, 0], rotor=[0, 0, 1], t_end=1, every=20)),
+    (["--case", "ht1", "--scheme", "exact", "--t-end", "2", "--every", "100"],
+     dict(case="ht1", scheme="exact", t_end=2, every=100)),
+    (["--case", "ht1", "--dt", "-0.001", "--t-end", "-0.05"], dict(case="ht1", dt=-0.001, t_end=-0.05)),
+]
+
+
+@pytest.mark.parametrize("flags,kwargs", CASES, ids=[" ".join(f) for f, _ in CASES])
+def test_rows_bit_identical_to_the_cli(flags, kwargs):
+    rc, cli, err = run_cli(flags)
+    assert rc == 0, err
+    rows = trompo.simulate(**kwargs)
+    assert same_rows(rows, cli)
+    assert rows["R"].shape == (len(rows["t"]), 3, 3)
+    assert rows["iterations"].dtype == np.int64
+
+
+def test_recovered_by_substeps_warns_and_matches_the_cli():
+    rc, cli, err = run_cli(["--case", "ht0", "--dt", "0.2", "--t-end", "1"])
+    assert rc == 0 and "recovered by sub-stepping" in err
+    with pytest.warns(trompo.Recovered, match="recovered by sub-stepping"):
+        rows = trompo.simulate(case="ht0", dt=0.2, t_end=1)
+    assert same_rows(rows, cli)
+
+
+def test_invariants_simo_kappa_ht1():
+    r = trompo.simulate(case="ht1", t_end=10, every=100)
+    assert len(r["t"]) == 101 and r["t"][-1] == 10.0
+    assert np.max(np.abs(r["H"] / r["H"][0] - 1)) < 1e-12
+    assert np.max(np.abs(r["mu"] / r["mu"][0] - 1)) < 1e-12
+    RtR = np.einsum("nki,nkj->nij", r["R"], r["R"])
+    assert np.max(np.abs(RtR - np.eye(3))) < 1e-14
+    assert np.all(r["iterations"][1:] > 0) and r["iterations"][0] == 0
+
+
+def test_invariants_free_body_spatial_momentum():
+    r = trompo.simulate(case="fb1", scheme="geradin-bauchau", t_end=100, every=1000)
+    assert np.max(np.linalg.norm(r["pi"] - r["pi"][0], axis=1)) < 1e-12 * np.linalg.norm(r["pi"][0])
+    assert np.max(np.abs(r["H"] / r["H"][0] - 1)) < 1e-12
+
+
+def test_order_4_beats_order_2_against_the_closed_form():
+    exact = trompo.simulate(case="ht1", scheme="exact", dt=0.01, t_end=10, every=1000)["R"][-1]
+    e2 = np.linalg.norm(trompo.simulate(case="ht1", dt=0.01, t_end=10, every=1000)["R"][-1] - exact)
+    e4 = np.linalg.norm(trompo.simulate(case="ht1", dt=0.01, t_end=10, every=1000, composition="suzuki-5")["R"][-1]
+                        - exact)
+    assert e4 < e2 / 100
+
+
+BAD = [
+    (["--case", "ht1", "--dt", "0"], dict(case="ht1", dt=0)),
+    (["--case", "ht1", "--dt", "nan"], dict(case="ht1", dt=float("nan"))),
+    (["--case", "ht1", "--scheme", "euler"], dict(case="ht1", scheme="euler")),
+    (["--case", "ht9"], dict(case="ht9")),
+    (["--case", "ht1", "--inertia", "1,1,5"], dict(case="ht1", inertia=[1, 1, 5])),
+    (["--case", "ht1", "--alpha", "0.3"], dict(case="ht1", alpha=0.3)),
+    (["--case", "ht1", "--order", "3"], dict(case="ht1", order=3)),
+    (["--case", "ht1", "--scheme", "rk4", "--order", "4"], dict(case="ht1", scheme="rk4", order=4)),
+    (["--case", "ht1", "--composition", "suzuki-5", "--order", "6"], dict(case="ht1", composition="suzuki-5", order=6)),
+    (["--case", "ht1", "--t-end", "-1"], dict(case="ht1", t_end=-1)),
+    (["--inertia", "1,2,3", "--dt", "0.1"], dict(inertia=[1, 2, 3], dt=0.1)),
+    (["--case", "ht1", "--com", "0,0,0"], dict(case="ht1", com=[0, 0, 0])),
+    (["--case", "ht2", "--scheme", "exact"], dict(case="ht2", scheme="exact")),
+    (["--case", "ht1", "--every", "0"], dict(case="ht1", every=0)),
+    (["--case", "ht1", "--rotor", "1,2"], None),
+]
+
+
+@pytest.mark.parametrize("flags,kwargs", BAD, ids=[" ".join(f) for f, _ in BAD])
+def test_bad_arguments_raise_the_cli_message(flags, kwargs):
+    rc, rows, err = run_cli(flags)
+    assert rc == 2 and rows is None
+    message = err.strip().removeprefix("trompo-simulate: ")
+    if kwargs is None:  # a vector of the wrong length is caught in Python, with the flag's name
+        with pytest.raises(ValueError, match="--rotor: expected 3 numbers"):
+            trompo.simulate(case="ht1", rotor=[1, 2])
+        return
+    with pytest.raises(ValueError) as e:
+        trompo.simulate(**kwargs)
+    assert str(e.value) == message
+
+
+def test_other_keywords_are_passed_as_flags():
+    """A keyword simulate() does not list goes to the CLI's parser as --name (so flags the
+    CLI gains work from Python at once); an unknown one is the CLI's error."""
+    rc, rows, err = run_cli(["--case", "ht1", "--spin-rate", "3"])
+    with pytest.raises(ValueError) as e:
+        trompo.simulate(case="ht1", spin_rate=3)
+    assert rc == 2 and str(e.value) == err.strip().removeprefix("trompo-simulate: ")
+    with pytest.raises(TypeError):
+        trompo.simulate(case="ht1", csv="out.csv")
+
+
+def test_step_failed_carries_the_rows_up_to_the_last_good_state():
+    # A torque that spins the top up until not even 1024 sub-steps can take a step.
+    flags = ["--case", "ht1", "--torque", "0,0,1e7", "--dt", "0.01", "--t-end", "0.1"]
+    rc, cli, err = run_cli(flags)
+    assert rc == 3 and len(cli["t"]) == 4
+    with pytest.raises(trompo.StepFailed) as e:
+        trompo.simulate(case="ht1", torque=[0, 0, 1e7], dt=0.01, t_end=0.1)
+    assert str(e.value) == err.strip().splitlines()[-1].removeprefix("trompo-simulate: ")
+    assert "not recovered by sub-stepping" in str(e.value)
+    assert same_rows(e.value.rows, cli)
+    assert e.value.t == cli["t"][-1] == 0.03
+
+
+def test_gil_released_while_cpp_integrates():
+    """Another Python thread runs while simulate() is inside C++: the main thread sleeps
+    in small steps and finds the worker still busy afterwards. With the GIL held for the
+    whole call, the main thread could not run until the worker had returned."""
+    started = threading.Event()
+
+    def work():
+        started.set()
+        trompo.simulate(case="ht1", t_end=1000, every=10**6)  # 1e6 steps
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    started.wait()
+    ticks = 0
+    for _ in range(20):
+        time.sleep(0.001)
+        ticks += 1
+    alive = worker.is_alive()
+    worker.join()
+    assert ticks == 20 and alive

@@ -1,0 +1,178 @@
+"""trompo: structure-preserving integrators for rigid-body rotation, from Python.
+
+    import trompo
+    rows = trompo.simulate(case="ht1", t_end=1)          # the CLI's vocabulary
+    rows["H"][-1], rows["R"].shape                       # (n,), (n, 3, 3)
+
+    out = trompo.ensemble(rotation, omega, case="ht1", t_end=1, threads=2)
+    out["R"][i], out["ok"][i]                            # final state of member i
+
+``simulate`` runs exactly what ``trompo-simulate`` runs with the same flags (the same
+C++ code: the parser, the checks, the dispatch), so its rows are bit-identical to the
+CLI's CSV rows. See docs/python.md.
+"""
+import numbers
+import sys
+import warnings
+
+#: The interpreter the extension was built for (CMake's Python3_EXECUTABLE).
+BUILT_FOR = "@Python3_EXECUTABLE@"
+
+try:
+    import numpy as np
+except ImportError as e:  # e.g. a pyenv or venv python3 without Debian's python3-numpy
+    raise ImportError(f"trompo needs NumPy, which {sys.executable} cannot import; the module was built for "
+                      f"{BUILT_FOR} (docs/python.md, 'Which interpreter')") from e
+
+from ._trompo import ensemble_flags as _ensemble_flags
+from ._trompo import simulate_flags as _simulate_flags
+from ._trompo import usage as _usage
+from ._trompo import __version__
+
+__all__ = ["simulate", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__"]
+
+#: The keys of simulate()'s dict, in the CSV header's order (R is (n,3,3), W and pi (n,3)).
+COLUMNS = ("t", "R", "W", "H", "mu", "pi", "iterations")
+
+
+class StepFailed(RuntimeError):
+    """A step failed and sub-stepping could not recover it (the CLI's exit status 3).
+
+    ``rows`` holds every row up to the last good state (a dict like simulate()'s),
+    ``t`` the time of that state, and the message says why, as the CLI's stderr does.
+    """
+
+    def __init__(self, message, rows):
+        super().__init__(message)
+        self.rows = rows
+        self.t = float(rows["t"][-1]) if len(rows["t"]) else None
+
+
+class Recovered(UserWarning):
+    """Some intervals needed sub-stepping to succeed (the CLI says so on stderr)."""
+
+
+def _number(name, x):
+    if isinstance(x, str):
+        return x
+    if isinstance(x, bool) or not isinstance(x, (numbers.Real, np.number)):
+        raise ValueError(f"--{name}: not a number: {x!r}")
+    if isinstance(x, (numbers.Integral, np.integer)):
+        return str(int(x))
+    # repr of a float is its shortest round-trip form: strtod gives back the same double.
+    return repr(float(x))
+
+
+def _vector(name, x, sizes=(3,)):
+    if isinstance(x, str):
+        return x
+    a = np.asarray(x, dtype=float)
+    if name == "inertia" and a.shape == (3, 3):
+        if not np.array_equal(a, a.T):
+            raise ValueError(f"--inertia: not symmetric: {a.tolist()}")
+        a = np.array([a[0, 0], a[1, 1], a[2, 2], a[0, 1], a[0, 2], a[1, 2]])
+    if a.ndim != 1 or a.size not in sizes:
+        want = " or ".join(str(s) for s in sizes)
+        raise ValueError(f"--{name.replace('_', '-')}: expected {want} numbers, got shape {a.shape}")
+    return ",".join(repr(float(v)) for v in a)
+
+
+_SCALARS = ("alpha", "mgl", "dt", "t_end", "every", "order", "damping", "threads")
+_VECTORS = {"inertia": (3, 6), "com": (3,), "up": (3,), "rotation": (3,), "omega": (3,), "torque": (3,),
+            "space_torque": (3,), "rotor": (3,)}
+_WORDS = ("case", "scheme", "composition")
+
+
+def _flags(kwargs):
+    flags = {}
+    for name, value in kwargs.items():
+        if value is None:
+            continue
+        flag = "--" + name.replace("_", "-")
+        if name in _WORDS:
+            flags[flag] = str(value)
+        elif name in _SCALARS:
+            flags[flag] = _number(name.replace("_", "-"), value)
+        elif name in _VECTORS:
+            flags[flag] = _vector(name, value, _VECTORS[name])
+        elif isinstance(value, str):
+            # Any other keyword is passed on as the flag of that name: a flag the CLI gains
+            # is usable from Python at once, and an unknown one is the CLI's error.
+            flags[flag] = value
+        elif isinstance(value, (numbers.Real, np.number)):
+            flags[flag] = _number(name.replace("_", "-"), value)
+        else:
+            a = np.asarray(value, dtype=float).ravel()
+            flags[flag] = ",".join(repr(float(v)) for v in a)
+    return flags
+
+
+def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None, inertia=None, mgl=None,
+             com=None, up=None, rotation=None, omega=None, dt=None, t_end=None, every=None, damping=None,
+             torque=None, space_torque=None, rotor=None, **flags):
+    """One trajectory, as ``trompo-simulate`` with the same flags (``t_end`` is ``--t-end``).
+
+    Returns a dict of NumPy arrays keyed like the CSV header: ``t`` (n,), ``R`` (n,3,3)
+    (Λ), ``W`` (n,3) (Ω, body), ``H`` (n,), ``mu`` (n,), ``pi`` (n,3) and ``iterations``
+    (n,), one entry per written row (every ``every``-th step, the first and the last).
+
+    Raises ValueError with the CLI's message on bad arguments, and StepFailed (carrying
+    the rows up to the last good state) when a step fails beyond recovery. Warns with
+    Recovered when sub-stepping was needed. ``inertia`` is J11,J22,J33, six numbers
+    J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
+    is passed as the CLI flag ``--name`` (``_`` becomes ``-``): the CLI's own parser
+    accepts it or raises its ValueError (``unknown option '--name' (see --help)``).
+    """
+    kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, inertia=inertia,
+                  mgl=mgl, com=com, up=up, rotation=rotation, omega=omega, dt=dt, t_end=t_end, every=every,
+                  damping=damping, torque=torque, space_torque=space_torque, rotor=rotor, **flags)
+    for name in ("ensemble", "csv", "threads"):
+        if name in flags:
+            raise TypeError(f"simulate: {name!r} is not for simulate (see trompo.ensemble)")
+    status, rows, messages = _simulate_flags(_flags(kwargs))
+    if status == 3:
+        raise StepFailed(messages[-1], rows)
+    for m in messages:
+        warnings.warn(m, Recovered, stacklevel=2)
+    return rows
+
+
+def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
+             composition=None, com=None, up=None, dt=None, t_end=None, damping=None, torque=None,
+             space_torque=None, rotor=None, threads=0, **flags):
+    """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
+
+    ``rotation`` is (N,3) rotation vectors (Λ0 = exp(R^), as ``--rotation``) or (N,3,3)
+    rotation matrices; ``omega`` is (N,3). Optional per-member ``mgl`` (N,) and
+    ``inertia`` (N,3) diagonal, (N,6) as ``--inertia`` or (N,3,3); everything else is
+    shared, with simulate()'s vocabulary. Member i's final state is bit-identical to the
+    last row of ``simulate`` with that member's values (a member with its own mgl is a
+    heavy top, even at mgl = 0).
+
+    Returns a dict of arrays with one entry per member: ``t``, ``R``, ``W``, ``H``,
+    ``mu``, ``pi``, ``iterations`` (the member's total Newton iterations) as simulate's
+    columns, plus ``ok`` (bool), ``status`` (list of str: "ok" or why the member stopped)
+    and ``recovered`` (intervals saved by sub-stepping). A failed member does not stop
+    the others and raises nothing: its row is its last good state. Other keywords are
+    passed on as CLI flags, as for simulate().
+    """
+    kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, com=com, up=up,
+                  dt=dt, t_end=t_end, damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
+                  threads=threads, **flags)
+    for name in ("ensemble", "csv", "every"):
+        if name in flags:
+            raise TypeError(f"ensemble: {name!r} is not for ensemble")
+    flags = _flags(kwargs)
+    flags["--ensemble"] = "(arrays)"
+    rotation = np.asarray(rotation, dtype=float)
+    omega = np.asarray(omega, dtype=float)
+    if mgl is not None:
+        mgl = np.asarray(mgl, dtype=float)
+    if inertia is not None:
+        inertia = np.asarray(inertia, dtype=float)
+    return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+
+
+def usage():
+    """trompo-simulate --help: the vocabulary of simulate()'s keywords."""
+    return _usage()

@@ -1,0 +1,215 @@
+// trompo._trompo: the C++ half of the Python module `trompo` (python/trompo/__init__.py is
+// the other half). It runs trompo-simulate's own logic (examples/simulate/simulate_core.hpp):
+// the same flag parser with the same messages, the same checks, the same dispatch; rows go
+// to NumPy arrays instead of a CSV file, so they are bit-identical to the CLI's. The GIL is
+// released while C++ integrates.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "simulate/simulate_core.hpp"
+
+namespace py = pybind11;
+using namespace trompo_simulate;
+
+namespace {
+
+/// Rows as columns of doubles, turned into NumPy arrays without a copy at the end.
+class ArraySink final : public RowSink {
+ public:
+  std::vector<double> t, R, W, H, mu, pi;
+  std::vector<std::int64_t> iterations;
+  std::vector<std::string> messages;
+
+  void reserve(std::size_t rows) {
+    t.reserve(rows);
+    R.reserve(9 * rows);
+    W.reserve(3 * rows);
+    H.reserve(rows);
+    mu.reserve(rows);
+    pi.reserve(3 * rows);
+    iterations.reserve(rows);
+  }
+  void header() override {}
+  void row(double t_, const M3& R_, const V3& W_, double H_, double mu_, const V3& pi_, long iterations_) override {
+    t.push_back(t_);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R.push_back(R_(i, j));  // row-major, as R00,R01,… in the CSV
+    for (int i = 0; i < 3; ++i) W.push_back(W_(i));
+    H.push_back(H_);
+    mu.push_back(mu_);
+    for (int i = 0; i < 3; ++i) pi.push_back(pi_(i));
+    iterations.push_back(iterations_);
+  }
+  void message(const std::string& text) override { messages.push_back(text); }
+};
+
+/// A NumPy array owning the vector's buffer (moved, not copied).
+template <class T>
+py::array_t<T> to_array(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
+  auto* owned = new std::vector<T>(std::move(v));
+  py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, owned->data(), owner);
+}
+
+py::dict rows_of(ArraySink& s) {
+  const auto n = static_cast<py::ssize_t>(s.t.size());
+  py::dict d;
+  d["t"] = to_array(std::move(s.t), {n});
+  d["R"] = to_array(std::move(s.R), {n, 3, 3});
+  d["W"] = to_array(std::move(s.W), {n, 3});
+  d["H"] = to_array(std::move(s.H), {n});
+  d["mu"] = to_array(std::move(s.mu), {n});
+  d["pi"] = to_array(std::move(s.pi), {n, 3});
+  d["iterations"] = to_array(std::move(s.iterations), {n});
+  return d;
+}
+
+Config config_of(const std::map<std::string, std::string>& flags) {
+  try {
+    Config c = parse_flags(flags);
+    validate(c);
+    return c;
+  } catch (const invalid_input& e) {
+    throw py::value_error(e.what());
+  }
+}
+
+/// (status, rows, messages): status is the CLI's exit code (0 done, 3 a step failed).
+py::tuple simulate_flags(const std::map<std::string, std::string>& flags) {
+  const Config c = config_of(flags);
+  if (!c.ensemble.empty() || !c.csv.empty()) throw py::value_error("simulate: --ensemble and --csv are the CLI's");
+  ArraySink sink;
+  const double rows = std::abs(*c.t_end / *c.dt) / static_cast<double>(c.every) + 2;  // a guess, capped
+  sink.reserve(static_cast<std::size_t>(std::min(rows, 1e7)));
+  int code = 0;
+  std::string error;
+  {
+    py::gil_scoped_release no_gil;
+    try {
+      code = simulate(c, sink);
+    } catch (const invalid_input& e) {
+      error = e.what();
+    }
+  }
+  if (!error.empty()) throw py::value_error(error);
+  py::list messages;
+  for (const auto& m : sink.messages) messages.append(m);
+  return py::make_tuple(code, rows_of(sink), messages);
+}
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// The ensemble: members from arrays, final states out as arrays.
+py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const Array& rotation, const Array& omega,
+                        const std::optional<Array>& mgl, const std::optional<Array>& inertia) {
+  const Config c = config_of(flags);
+  auto shape = [](const Array& a) {
+    std::string s = "(";
+    for (py::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
+    return s + (a.ndim() == 1 ? ",)" : ")");
+  };
+  if (!(rotation.ndim() == 2 && rotation.shape(1) == 3) && !(rotation.ndim() == 3 && rotation.shape(1) == 3 && rotation.shape(2) == 3))
+    throw py::value_error("rotation: expected rotation vectors (N, 3) or matrices (N, 3, 3), got shape " + shape(rotation));
+  const auto n = static_cast<std::size_t>(rotation.shape(0));
+  if (n == 0) throw py::value_error("rotation: no members (N = 0)");
+  if (!(omega.ndim() == 2 && omega.shape(1) == 3 && static_cast<std::size_t>(omega.shape(0)) == n))
+    throw py::value_error("omega: expected shape (" + std::to_string(n) + ", 3), got " + shape(omega));
+  if (mgl && !(mgl->ndim() == 1 && static_cast<std::size_t>(mgl->shape(0)) == n))
+    throw py::value_error("mgl: expected shape (" + std::to_string(n) + ",), got " + shape(*mgl));
+  if (inertia && !(inertia->ndim() == 2 && static_cast<std::size_t>(inertia->shape(0)) == n &&
+                   (inertia->shape(1) == 3 || inertia->shape(1) == 6)) &&
+      !(inertia->ndim() == 3 && static_cast<std::size_t>(inertia->shape(0)) == n && inertia->shape(1) == 3 &&
+        inertia->shape(2) == 3))
+    throw py::value_error("inertia: expected shape (" + std::to_string(n) + ", 3), (" + std::to_string(n) + ", 6) or (" +
+                          std::to_string(n) + ", 3, 3), got " + shape(*inertia));
+
+  EnsembleInput in;
+  in.rotation.reserve(n);
+  in.omega.reserve(n);
+  const double* r = rotation.data();
+  const double* w = omega.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    try {
+      if (rotation.ndim() == 2) {
+        const V3 x(r[3 * i], r[3 * i + 1], r[3 * i + 2]);
+        if (!trompo::detail::all_finite(x)) throw invalid_input("rotation: not finite " + trompo::detail::to_text(x));
+        in.rotation.push_back(trompo::SO3d::exp(x));
+      } else {
+        in.rotation.push_back(trompo::SO3d::from_matrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r + 9 * i)));
+      }
+      in.omega.emplace_back(w[3 * i], w[3 * i + 1], w[3 * i + 2]);
+      if (mgl) in.mgl.push_back(mgl->data()[i]);
+      if (inertia) {
+        const double* j = inertia->data();
+        M3 J = M3::Zero();
+        if (inertia->ndim() == 3) {
+          J = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(j + 9 * i);
+        } else if (inertia->shape(1) == 3) {
+          J.diagonal() << j[3 * i], j[3 * i + 1], j[3 * i + 2];
+        } else {
+          const double* v = j + 6 * i;  // J11,J22,J33,J12,J13,J23 as --inertia
+          J.diagonal() << v[0], v[1], v[2];
+          J(0, 1) = J(1, 0) = v[3];
+          J(0, 2) = J(2, 0) = v[4];
+          J(1, 2) = J(2, 1) = v[5];
+        }
+        in.inertia.push_back(J);
+      }
+      validate_member(c, in, i);
+    } catch (const invalid_input& e) {
+      throw py::value_error("member " + std::to_string(i) + ": " + e.what());
+    }
+  }
+
+  EnsembleRun run{in, {}, {}, {}, {}, {}};
+  std::string error;
+  {
+    py::gil_scoped_release no_gil;
+    try {
+      simulate(c, run);
+    } catch (const invalid_input& e) {
+      error = e.what();
+    }
+  }
+  if (!error.empty()) throw py::value_error(error);
+
+  ArraySink rows;
+  rows.reserve(n);
+  std::vector<std::int64_t> recovered(n);
+  std::vector<bool> ok(n);
+  py::list status;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& s = run.states[i];
+    rows.row(s.time, s.rotation.matrix(), s.omega, run.energy[i], run.momentum_map[i], run.spatial_momentum[i],
+             static_cast<long>(run.summaries[i].iterations));
+    recovered[i] = run.summaries[i].recovered;
+    status.append(run.summaries[i].reason());
+    ok[i] = run.summaries[i].ok();
+  }
+  py::dict d = rows_of(rows);
+  py::array_t<bool> ok_array(static_cast<py::ssize_t>(n));
+  for (std::size_t i = 0; i < n; ++i) ok_array.mutable_data()[i] = ok[i];
+  d["ok"] = ok_array;
+  d["status"] = status;
+  d["recovered"] = to_array(std::move(recovered), {static_cast<py::ssize_t>(n)});
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_trompo, m) {
+  m.doc() = "C++ half of the trompo module: trompo-simulate's logic on NumPy arrays (use trompo.simulate / trompo.ensemble)";
+  m.def("simulate_flags", &simulate_flags, py::arg("flags"),
+        "Runs trompo-simulate's flags (a dict '--dt' -> '0.001'); returns (status, rows, messages).");
+  m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
+        py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
+        "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
+  m.def("usage", [] { return std::string(kUsage); }, "trompo-simulate --help");
+  m.attr("__version__") = TROMPO_VERSION;
+}

@@ -1,0 +1,217 @@
+// integrate_ensemble (ensemble.hpp): every member bit-identical to a single integrate()
+// run with its stepper, for 1, 2 and 3 threads; a failing member stops alone, at the
+// state its single run stops at; per-member scenes; a scheme with memory; bad input
+// thrown before any step; allocations that do not grow with the number of steps.
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+namespace ensemble_alloc {
+inline std::atomic<long> news{0};
+inline std::atomic<bool> counting{false};
+}  // namespace ensemble_alloc
+
+namespace {
+void* counted(std::size_t n) {
+  if (ensemble_alloc::counting.load(std::memory_order_relaxed)) ++ensemble_alloc::news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* counted_aligned(std::size_t n, std::align_val_t a) {
+  if (ensemble_alloc::counting.load(std::memory_order_relaxed)) ++ensemble_alloc::news;
+  const std::size_t al = static_cast<std::size_t>(a);
+  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+
+// Every replaceable form, so that no allocation escapes the count and every pointer is
+// released by the matching function (AddressSanitizer checks the pairing).
+void* operator new(std::size_t n) { return counted(n); }
+void* operator new[](std::size_t n) { return counted(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  try {
+    return counted(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
+  try {
+    return counted(n);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new(std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
+void* operator new[](std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+#include <catch2/catch.hpp>
+
+#include <vector>
+
+#include "support/midpoint_scheme.hpp"
+#include "support/same_bits.hpp"
+#include "trompo/ensemble.hpp"
+#include "trompo/trompo.hpp"
+
+using namespace trompo;
+using trompo_test::same_bits;
+using Vec3 = Eigen::Vector3d;
+
+namespace {
+
+using Top = HeavyTop<double>;
+
+/// HT1 with its tilt and spin perturbed member by member (a small sweep).
+std::vector<State<double>> ht1_members(int n) {
+  std::vector<State<double>> out;
+  for (int i = 0; i < n; ++i) {
+    State<double> s;
+    s.rotation = SO3d::exp(Vec3(0.05 + 0.01 * i, 0.002 * (i % 3), 0));
+    s.omega = Vec3(0, 0.1 * (i % 5), 40 + i);
+    out.push_back(s);
+  }
+  return out;
+}
+
+bool same_summary(const IntegrationSummary<double>& a, const IntegrationSummary<double>& b) {
+  return a.steps == b.steps && a.substeps == b.substeps && a.recovered == b.recovered && a.failures == b.failures &&
+         a.iterations == b.iterations && a.status == b.status && a.time == b.time;
+}
+
+}  // namespace
+
+TEST_CASE("ensemble: each member is bit-identical to its single integrate run, for 1, 2 and 3 threads", "[ensemble]") {
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
+  const auto start = ht1_members(7);
+  const double t_end = 0.3, h = 0.001;
+
+  std::vector<State<double>> single = start;
+  std::vector<IntegrationSummary<double>> single_sum;
+  for (auto& s : single) single_sum.push_back(integrate(stepper, s, t_end, h));
+
+  for (unsigned threads : {1u, 2u, 3u}) {
+    INFO("threads " << threads);
+    auto members = start;
+    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads});
+    REQUIRE(sums.size() == members.size());
+    for (std::size_t i = 0; i < members.size(); ++i) {
+      INFO("member " << i);
+      CHECK(sums[i].ok());
+      CHECK(sums[i].steps == 300);
+      CHECK(same_bits(members[i], single[i]));
+      CHECK(same_summary(sums[i], single_sum[i]));
+    }
+  }
+}
+
+TEST_CASE("ensemble: per-member scenes (inertia and weight) and a composed stepper", "[ensemble]") {
+  const auto start = ht1_members(5);
+  std::vector<ComposedStepper<SimoKappa, Top>> steppers;
+  for (int i = 0; i < 5; ++i)
+    steppers.emplace_back(SimoKappa{}, Top(RigidBody<double>(Vec3(5, 5, 1 + 0.1 * i)),
+                                           UniformGravity<double>(20.0 + i, Vec3::UnitZ(), Vec3::UnitZ())),
+                          Composition::suzuki5);
+  auto one = start, two = start;
+  integrate_ensemble(steppers, one, 0.1, 0.002, {.threads = 1});
+  const auto sums = integrate_ensemble(steppers, two, 0.1, 0.002, {.threads = 2});
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    INFO("member " << i);
+    State<double> s = start[i];
+    const auto sum = integrate(steppers[i], s, 0.1, 0.002);
+    CHECK(same_bits(one[i], s));
+    CHECK(same_bits(two[i], s));
+    CHECK(same_summary(sums[i], sum));
+    // The invariants a composed Simo-kappa keeps, member by member.
+    const double H0 = steppers[i].scene().energy(start[i]);
+    CHECK(std::abs(steppers[i].scene().energy(s) - H0) <= 1e-12 * std::abs(H0));
+  }
+  // The members differ (each got its own scene), so the check above is not vacuous.
+  CHECK_FALSE(same_bits(one[0], one[1]));
+}
+
+TEST_CASE("ensemble: a failing member stops at its last good state, the others finish", "[ensemble]") {
+  const auto fb1 = cases::fb1<double>();
+  const Stepper<SimoKappa, cases::Free<double>> stepper(SimoKappa{}, fb1.scene);
+  std::vector<State<double>> start(4, fb1.initial);
+  start[2].omega = Vec3(0, 1e6, 0);  // |Θ| = 1e5 rad a step: not even 1024 sub-steps save it
+  const double t_end = 0.5, h = 0.1;
+
+  for (unsigned threads : {1u, 2u}) {
+    INFO("threads " << threads);
+    auto members = start;
+    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads});
+    for (std::size_t i = 0; i < members.size(); ++i) {
+      INFO("member " << i);
+      State<double> s = start[i];
+      const auto sum = integrate(stepper, s, t_end, h);
+      CHECK(same_bits(members[i], s));
+      CHECK(same_summary(sums[i], sum));
+      CHECK(sums[i].ok() == (i != 2));
+    }
+    CHECK(sums[2].status != StepStatus::ok);
+    CHECK(members[2].time == 0.0);       // nothing was accepted
+    CHECK(members[3].time == t_end);     // the member after it finished
+  }
+}
+
+TEST_CASE("ensemble: a scheme with memory (a fresh trajectory per member, as integrate gives)", "[ensemble]") {
+  const auto fb1 = cases::fb1<double>();
+  const Stepper<trompo_test::MidpointQ, cases::Free<double>> stepper(trompo_test::MidpointQ{}, fb1.scene);
+  std::vector<State<double>> start(3, fb1.initial);
+  start[1].omega *= 1.5;
+  start[2].omega *= 2.0;
+  auto members = start;
+  integrate_ensemble(stepper, members, 1.0, 0.01, {.threads = 2});
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    State<double> s = start[i];
+    integrate(stepper, s, 1.0, 0.01);
+    CHECK(same_bits(members[i], s));
+  }
+}
+
+TEST_CASE("ensemble: bad input throws before any member is stepped", "[ensemble]") {
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
+  auto members = ht1_members(3);
+  const auto before = members;
+  members[1].omega.x() = std::nan("");
+  CHECK_THROWS_WITH(integrate_ensemble(stepper, members, 1.0, 0.01), Catch::Contains("member 1") && Catch::Contains("omega"));
+  CHECK(same_bits(members[0], before[0]));
+  members = before;
+  CHECK_THROWS_WITH(integrate_ensemble(stepper, members, 1.0, 0.0), Catch::Contains("h must be finite and non-zero"));
+  CHECK_THROWS_WITH(integrate_ensemble(stepper, members, -1.0, 0.01), Catch::Contains("behind its start"));
+  std::vector<Stepper<SimoKappa, Top>> two(2, stepper);
+  CHECK_THROWS_WITH(integrate_ensemble(two, members, 1.0, 0.01), Catch::Contains("2 steppers for 3 members"));
+  CHECK(same_bits(members[2], before[2]));
+}
+
+TEST_CASE("ensemble: allocations do not grow with the number of steps", "[ensemble]") {
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
+  auto count = [&](double t_end, unsigned threads) {
+    auto members = ht1_members(4);
+    ensemble_alloc::news = 0;
+    ensemble_alloc::counting = true;
+    const auto sums = integrate_ensemble(stepper, members, t_end, 0.001, {.threads = threads});
+    ensemble_alloc::counting = false;
+    CHECK(sums[3].ok());
+    return ensemble_alloc::news.load();
+  };
+  for (unsigned threads : {1u, 2u}) {
+    INFO("threads " << threads);
+    const long short_run = count(0.01, threads), long_run = count(0.5, threads);  // 10 and 500 steps
+    CHECK(short_run == long_run);
+    CHECK(long_run <= 2 + 2 * static_cast<long>(threads));  // summaries, error slots, the threads
+  }
+}

@@ -27,6 +27,7 @@
 
 #include "trompo/effects/effect.hpp"
 #include "trompo/effects/external_torque.hpp"
+#include "trompo/effects/uniform_gravity.hpp"
 #include "trompo/effects/viscous_damping.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/so3.hpp"
@@ -65,8 +66,24 @@ constexpr SubFlowKind sub_flow_of() {
   else return SubFlowKind::none;
 }
 
+/// What the splitting remembers per trajectory (its Memory): the working frame of
+/// [S1]/[S8] in compact form (Q, the moments, the rotor momentum and the damping), found on
+/// the first step. Kept small because the Stepper copies the memory on every step; the
+/// derived constants are expanded per step by SplittingFrame::expand (a few operations).
+template <class Scalar>
+struct SplittingMemory {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Quaternion = Eigen::Quaternion<Scalar>;
+  bool ready = false;     ///< false in fresh memory: built on the first step
+  bool identity = true;   ///< Q = I
+  Quaternion Q = Quaternion::Identity();  ///< working → user body frame
+  Vector3 J = Vector3::Ones();            ///< principal moments (J_b, J_a, J_s)
+  Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
+  Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
+};
+
 /// The working frame of [S1]/[S8] and the constants of the sub-flows, computed once per
-/// trajectory (the splitting's Memory) from the scene's inertia and rotor.
+/// trajectory from the scene's inertia and rotor (SplittingMemory) and expanded per step.
 template <class Scalar>
 struct SplittingFrame {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -142,9 +159,13 @@ struct SplittingFrame {
     f.Qm.col(2) = V.col(s);
     if (f.Qm.determinant() < 0) f.Qm.col(0) = -f.Qm.col(0);  // a rotation, not a reflection
     f.Qt = f.Qm.transpose();
+    f.identity = f.Qm == Matrix3::Identity();
     f.Q = Quaternion(f.Qm);
     f.Q.normalize();
-    f.identity = f.Qm == Matrix3::Identity();
+    if (!f.identity) {  // Q as the rotation actually applied (unit quaternion)
+      f.Qm = f.Q.toRotationMatrix();
+      f.Qt = f.Qm.transpose();
+    }
     f.J_inv = f.J.cwiseInverse();
     f.Ja_inv = f.J_inv(1);
     f.c_s = f.J_inv(2) - f.J_inv(1);
@@ -157,6 +178,43 @@ struct SplittingFrame {
     }
     std::apply([&](const auto&... e) { ((f.add_damping(e)), ...); }, scene.effects());
     f.ready = true;
+    return f;
+  }
+
+  /// The compact form kept in the memory.
+  SplittingMemory<Scalar> compact() const {
+    SplittingMemory<Scalar> m;
+    m.ready = ready;
+    m.identity = identity;
+    m.Q = Q;
+    m.J = J;
+    m.h_r = h_r;
+    m.damping = damping;
+    return m;
+  }
+
+  /// The frame from its compact form: Qm, Qᵀ (unless Q = I), 1/J, c_s, k_b, the rotor axis.
+  static SplittingFrame expand(const SplittingMemory<Scalar>& m) {
+    SplittingFrame f;
+    f.ready = m.ready;
+    f.identity = m.identity;
+    f.Q = m.Q;
+    if (!m.identity) {
+      f.Qm = m.Q.toRotationMatrix();
+      f.Qt = f.Qm.transpose();
+    }
+    f.J = m.J;
+    f.J_inv = m.J.cwiseInverse();
+    f.Ja_inv = f.J_inv(1);
+    f.c_s = f.J_inv(2) - f.J_inv(1);
+    f.k_b = m.J(0) == m.J(1) ? Scalar(0) : f.J_inv(0) - f.J_inv(1);
+    f.h_r = m.h_r;
+    if (m.h_r != Vector3::Zero()) {
+      const Vector3 w = -f.J_inv.cwiseProduct(f.h_r);  // [S13] w = −J⁻¹h_r
+      f.rotor_rate = w.norm();
+      if (f.rotor_rate > Scalar(0)) f.rotor_axis = w / f.rotor_rate;
+    }
+    f.damping = m.damping;
     return f;
   }
 
@@ -298,11 +356,49 @@ inline Scalar potential_at(const Scene& scene, const SplittingFrame<Scalar>& f,
   return v;
 }
 
+template <class E>
+inline constexpr bool is_gravity_v = false;
+template <class Scalar>
+inline constexpr bool is_gravity_v<UniformGravity<Scalar>> = true;
+
+template <class Tuple>
+struct all_gravity;
+template <class... E>
+struct all_gravity<std::tuple<E...>> : std::bool_constant<(sizeof...(E) > 0) && (is_gravity_v<E> && ...)> {};
+/// Whether every effect of the scene is uniform gravity (the heavy top): then the kicks are
+/// written on the quaternion directly, without forming Λ as a matrix.
+template <class Scene>
+inline constexpr bool gravity_only_v =
+    all_gravity<std::decay_t<decltype(std::declval<const Scene&>().effects())>>::value;
+
+/// Λᵀu for the unit quaternion q = (w, v) of Λ: u − 2w (v × u) + 2 v × (v × u).
+template <class Scalar>
+inline Eigen::Matrix<Scalar, 3, 1> rotate_inverse(const Eigen::Quaternion<Scalar>& q, const Eigen::Matrix<Scalar, 3, 1>& u) {
+  const Eigen::Matrix<Scalar, 3, 1> v = q.vec();
+  const Eigen::Matrix<Scalar, 3, 1> c = v.cross(u);
+  return u + Scalar(2) * (v.cross(c) - q.w() * c);
+}
+
+/// Uniform gravity's body torque in the working frame, from the quaternion:
+/// τ = −Mgl E_w × Λ_wᵀγ (docs/theory.md [S1]), E_w = QᵀE.
+template <class Scalar>
+inline Eigen::Matrix<Scalar, 3, 1> gravity_torque(const UniformGravity<Scalar>& g, const SplittingFrame<Scalar>& f,
+                                                  const Eigen::Quaternion<Scalar>& q) {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  const Vector3 b = rotate_inverse(q, g.up());  // b = Λ_wᵀγ
+  const Vector3 E = f.identity ? g.com_direction() : Vector3(f.Qt * g.com_direction());
+  return (-g.Mgl()) * E.cross(b);
+}
+
 /// [S4] the kick Π ← Π + t τ(Λ, t) (Λ and the clock frozen: exact).
 template <class Scene, class Scalar = typename Scene::Scalar>
 inline void flow_kick(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
-  const Eigen::Matrix<Scalar, 3, 3> L = x.q.toRotationMatrix();
-  x.P += t * kick_torque(scene, f, L, x.t);
+  if constexpr (gravity_only_v<Scene>) {
+    std::apply([&](const auto&... g) { ((x.P += t * gravity_torque(g, f, x.q)), ...); }, scene.effects());
+  } else {
+    const Eigen::Matrix<Scalar, 3, 3> L = x.q.toRotationMatrix();
+    x.P += t * kick_torque(scene, f, L, x.t);
+  }
 }
 
 /// [S7] Chin's middle kick: Π ← Π + t τ̃ with the torque of Ṽ = V − (h²/48) W,
@@ -314,6 +410,22 @@ inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, 
                            Scalar h) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  if constexpr (gravity_only_v<Scene>) {
+    // Gravity: K = Mgl((E·b) I − b Eᵀ), so Kᵀu = Mgl((E·b) u − E (b·u)) = Mgl b × (u × E), u = J⁻¹τ.
+    std::apply(
+        [&](const auto&... g) {
+          auto one = [&](const auto& grav) {
+            const Vector3 b = rotate_inverse(x.q, grav.up());
+            const Vector3 E = f.identity ? grav.com_direction() : Vector3(f.Qt * grav.com_direction());
+            const Vector3 tau = (-grav.Mgl()) * E.cross(b);
+            const Vector3 u = f.J_inv.cwiseProduct(tau);
+            x.P += t * (tau + (h * h / Scalar(24)) * (grav.Mgl() * b.cross(u.cross(E))));
+          };
+          (one(g), ...);
+        },
+        scene.effects());
+    return;
+  }
   const Matrix3 L = x.q.toRotationMatrix();
   Vector3 tau = Vector3::Zero();
   Matrix3 Kn = Matrix3::Zero();

@@ -25,7 +25,7 @@
 //
 // Frame. The working frame is the principal frame relabelled (s = z, a = y, b = x), found
 // once per trajectory, on the first step, and kept in the scheme's Memory (a
-// detail::SplittingFrame): a full inertia is diagonalised there and not per step, and a
+// detail::SplittingMemory): a full inertia is diagonalised there and not per step, and a
 // diagonal inertia whose axes are already in place (HT0, HT1) costs no conversion at all.
 // State in, state out stay in the user's body frame.
 //
@@ -129,7 +129,7 @@ struct SplittingScheme {
 
   /// The per-trajectory memory: the working frame (principal axes, [S1]/[S8]).
   template <class Scene>
-  using Memory = detail::SplittingFrame<typename Scene::Scalar>;
+  using Memory = detail::SplittingMemory<typename Scene::Scalar>;
 
   /// The order of the chosen method (2, 4 or 6).
   int order_of_accuracy() const { return order_of(method); }
@@ -164,7 +164,7 @@ struct SplittingScheme {
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h, const NewtonOptions<typename Scene::Scalar>&,
                                           State<typename Scene::Scalar>& out,
-                                          detail::SplittingFrame<typename Scene::Scalar>& memory) const {
+                                          detail::SplittingMemory<typename Scene::Scalar>& memory) const {
     using Effects = detail::splitting_effects_of<Scene>;
     static_assert(Effects::all_have_flows,
                   "splitting: an effect of this scene has no exact sub-flow. Potentials, rotors, viscous "
@@ -180,8 +180,8 @@ struct SplittingScheme {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
-    if (!memory.ready) memory = detail::SplittingFrame<Scalar>::of(scene);
-    const detail::SplittingFrame<Scalar>& f = memory;
+    if (!memory.ready) memory = detail::SplittingFrame<Scalar>::of(scene).compact();
+    const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::expand(memory);
 
     // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
     detail::SplitState<Scalar> x;

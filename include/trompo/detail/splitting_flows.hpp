@@ -80,6 +80,7 @@ struct SplittingMemory {
   Vector3 J = Vector3::Ones();            ///< principal moments (J_b, J_a, J_s)
   Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
+  Scalar energy = Scalar(0);              ///< H of the trajectory's first state (projection [S12])
 };
 
 /// The working frame of [S1]/[S8] and the constants of the sub-flows, computed once per

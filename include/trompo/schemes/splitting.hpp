@@ -180,7 +180,8 @@ struct SplittingScheme {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
-    if (!memory.ready) memory = detail::SplittingFrame<Scalar>::of(scene).compact();
+    const bool fresh = !memory.ready;
+    if (fresh) memory = detail::SplittingFrame<Scalar>::of(scene).compact();
     const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::expand(memory);
 
     // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
@@ -190,8 +191,10 @@ struct SplittingScheme {
     x.P = f.J.cwiseProduct(omega_w);
     if constexpr (Scene::has_rotor) x.P += f.h_r;
     x.t = in.time;
-    Scalar H0(0);
-    if constexpr (EnergyProjection) H0 = detail::working_energy(scene, f, x);
+    // The projection aims at the trajectory's first energy (kept in the memory), not at
+    // each step's: the one-update residuals (~ε) then do not accumulate as a random walk.
+    if constexpr (EnergyProjection)
+      if (fresh) memory.energy = detail::working_energy(scene, f, x);
 
     switch (method) {
       case SplittingMethod::strang: {
@@ -226,7 +229,7 @@ struct SplittingScheme {
         }
         break;
     }
-    if constexpr (EnergyProjection) detail::project_energy(scene, f, x, H0);
+    if constexpr (EnergyProjection) detail::project_energy(scene, f, x, memory.energy);
 
     if (!detail::all_finite(x.q.coeffs()) || !detail::all_finite(x.P) || !(x.q.coeffs().cwiseAbs().maxCoeff() > 0)) {
       rep.status = StepStatus::non_finite;
@@ -237,7 +240,9 @@ struct SplittingScheme {
     out.rotation = SO3<Scalar>::renormalized(q);
     Vector3 m = x.P;
     if constexpr (Scene::has_rotor) m -= f.h_r;
-    const Vector3 omega = f.J_inv.cwiseProduct(m);
+    // Divided, not multiplied by the rounded 1/J: a rounded reciprocal biases every step the
+    // same way (π would drift like N·ε, as in [S5]).
+    const Vector3 omega = m.cwiseQuotient(f.J);
     out.omega = f.identity ? omega : Vector3(f.Qm * omega);
     out.time = in.time + h;
     return rep;

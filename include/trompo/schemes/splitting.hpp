@@ -298,6 +298,16 @@ struct SplittingScheme {
       detail::flow_symmetric(f, x, h);
       return;
     }
+    if constexpr (detail::splitting_effects_of<Scene>::has_kick) {
+      if (m == 1 && ids[0] == kick_flow) {  // the symmetric heavy top: K S K S … K
+        detail::flow_kick(scene, f, x, w[0] * h / 2);
+        for (int i = 0; i < n; ++i) {
+          detail::flow_symmetric(f, x, w[i] * h);
+          detail::flow_kick(scene, f, x, (i + 1 < n ? w[i] + w[i + 1] : w[i]) * h / 2);
+        }
+        return;
+      }
+    }
     for (int k = 0; k < m; ++k) apply(ids[k], scene, f, x, w[0] * h / 2);
     for (int i = 0; i < n; ++i) {
       detail::flow_symmetric(f, x, w[i] * h);

@@ -185,13 +185,15 @@ def section(sweep, steps):
     add("joint bound, t = 1000: ≥ 40×", "HT1, ‖ΔΛ‖ ≤ 1e-6 and max|ΔH/H| ≤ 1e-12",
         *measure(sweep, "ht1-t1000", 1e-6, 1e-12), 40)
     add("fast asymmetric top (HTA, full inertia): ≥ 2×", "HTA, ‖ΔΛ‖ ≤ 1e-8", *measure(sweep, "hta", 1e-8), 2)
+    add("fast asymmetric top (HT2A, full inertia): ≥ 2×", "HT2A, ‖ΔΛ‖ ≤ 1e-8", *measure(sweep, "ht2a", 1e-8), 2)
     for bound in (1e-6, 1e-8):
         s, b, grid, interp = measure(sweep, "fb1", bound)
         L.append(f"| FB1: no target (closed form or dopri5) | FB1, ‖ΔΛ‖ ≤ {bound:g} | {_config(s)} | {_config(b)} | "
                  f"{_fmt_ratio(grid)} [{_fmt_ratio(interp)}] | — |")
     L += ["", "HTA: J = R diag(5, 5.5, 1) Rᵀ with R = exp((0.3, −0.2, 0.4)^), E = R e3, Mgl = 20, "
           "Λ0 = exp(0.05 ê1), Ω0 = R (0, 0, 50), t = 10; reference: a converged Kahan–Li splitting run "
-          "(bench/methods/splitting.cpp).", ""]
+          "(bench/methods/splitting.cpp). HT2A: HT2 made asymmetric, J = R diag(15.234375, 0.46875, 15.6) Rᵀ, "
+          "E = R e2, Mgl = 15·9.81, Λ0 = I, Ω0 = R (0, 150, −4.61538), t = 2 (same R); reference likewise.", ""]
     return L
 
 

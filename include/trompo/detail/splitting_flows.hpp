@@ -78,6 +78,7 @@ struct SplittingMemory {
   bool identity = true;   ///< Q = I
   Quaternion Q = Quaternion::Identity();  ///< working → user body frame
   Vector3 J = Vector3::Ones();            ///< principal moments (J_b, J_a, J_s)
+  Vector3 J_inv = Vector3::Ones();        ///< their inverses (kept: no division per step)
   Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
   Scalar energy = Scalar(0);              ///< H of the trajectory's first state (projection [S12])
@@ -189,6 +190,7 @@ struct SplittingFrame {
     m.identity = identity;
     m.Q = Q;
     m.J = J;
+    m.J_inv = J_inv;
     m.h_r = h_r;
     m.damping = damping;
     return m;
@@ -205,7 +207,7 @@ struct SplittingFrame {
       f.Qt = f.Qm.transpose();
     }
     f.J = m.J;
-    f.J_inv = m.J.cwiseInverse();
+    f.J_inv = m.J_inv;
     f.Ja_inv = f.J_inv(1);
     f.c_s = f.J_inv(2) - f.J_inv(1);
     f.k_b = m.J(0) == m.J(1) ? Scalar(0) : f.J_inv(0) - f.J_inv(1);

@@ -49,14 +49,17 @@ struct is_splitting_kick<SpaceTorque<Scalar, F>> : std::true_type {};
 
 namespace detail {
 
+/// Whether E is viscous damping (its sub-flow is the exact decay, [S13]).
 template <class E>
 inline constexpr bool is_damping_v = false;
+/// ViscousDamping is.
 template <class Scalar>
 inline constexpr bool is_damping_v<ViscousDamping<Scalar>> = true;
 
 /// How an effect enters the splitting ([S13]); `none` fails to compile (splitting.hpp).
 enum class SubFlowKind { kick, damping, rotor, none };
 
+/// The sub-flow of effect E in the splitting.
 template <class E>
 constexpr SubFlowKind sub_flow_of() {
   if constexpr (std::is_same_v<typename E::kind, potential_kind>) return SubFlowKind::kick;
@@ -359,13 +362,17 @@ inline Scalar potential_at(const Scene& scene, const SplittingFrame<Scalar>& f,
   return v;
 }
 
+/// Whether E is uniform gravity (its kick is written on the quaternion).
 template <class E>
 inline constexpr bool is_gravity_v = false;
+/// UniformGravity is.
 template <class Scalar>
 inline constexpr bool is_gravity_v<UniformGravity<Scalar>> = true;
 
+/// Whether every effect of a tuple is uniform gravity (and there is one).
 template <class Tuple>
 struct all_gravity;
+/// The tuple case.
 template <class... E>
 struct all_gravity<std::tuple<E...>> : std::bool_constant<(sizeof...(E) > 0) && (is_gravity_v<E> && ...)> {};
 /// Whether every effect of the scene is uniform gravity (the heavy top): then the kicks are

@@ -92,17 +92,23 @@ constexpr bool is_chin(SplittingMethod m) {
 }
 
 namespace detail {
+/// What the effects of a scene (a tuple of effects) need from the splitting.
 template <class Tuple>
 struct splitting_effects;
+/// The tuple case.
 template <class... E>
 struct splitting_effects<std::tuple<E...>> {
+  /// Every effect has an exact sub-flow ([S13]).
   static constexpr bool all_have_flows = ((sub_flow_of<E>() != SubFlowKind::none) && ...);
+  /// Some effect is viscous damping.
   static constexpr bool has_damping = ((sub_flow_of<E>() == SubFlowKind::damping) || ...);
+  /// Some effect is a kick (a potential or a velocity-independent torque).
   static constexpr bool has_kick = ((sub_flow_of<E>() == SubFlowKind::kick) || ...);
   /// Only potentials and rotors: Chin's force gradient applies, H is conserved.
   static constexpr bool conservative =
       ((std::is_same_v<typename E::kind, potential_kind> || std::is_same_v<typename E::kind, rotor_kind>) && ...);
 };
+/// splitting_effects of a scene's effects.
 template <class Scene>
 using splitting_effects_of = splitting_effects<std::decay_t<decltype(std::declval<const Scene&>().effects())>>;
 }  // namespace detail

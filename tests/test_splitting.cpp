@@ -291,6 +291,8 @@ TEST_CASE("splitting: defaults per order and scene", "[splitting]") {
   CHECK(st.keeps().momentum_map);
   CHECK_FALSE(st.keeps().energy);
   CHECK(keeps<HeavyTop<double>>(SplittingProjected{}).energy);
+  CHECK_FALSE(symmetric(SplittingProjected{}));  // not composable by ComposedStepper
+  CHECK(symmetric(Splitting{}));
 }
 
 TEST_CASE("splitting: float and long double", "[splitting]") {

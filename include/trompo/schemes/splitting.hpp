@@ -126,7 +126,9 @@ struct SplittingScheme {
 
   static constexpr const char* name = EnergyProjection ? "splitting-projected" : "splitting";
   static constexpr int order = 2;          ///< of the default (Strang); see order_of_accuracy()
-  static constexpr bool symmetric = true;  ///< every method is symmetric
+  /// Every method is symmetric; the projected step is not (it pulls H back to the
+  /// trajectory's first energy, which h then −h does not undo), so it is not composable.
+  static constexpr bool symmetric = !EnergyProjection;
   /// μ (under a load symmetric about γ) and π (free body, rotor) always; H only projected.
   template <class Scene>
   static constexpr Keeps keeps{.energy = EnergyProjection, .momentum_map = true, .spatial_momentum = true};

@@ -189,12 +189,36 @@ std::string exercise(const St& st, trompo::State<double> s, Reader& in, bool wil
   return {};
 }
 
+// ---- splitting (schemes/splitting.hpp) --------------------------------------------------
+/// The splitting carries its working frame as per-trajectory memory; exercise() steps a
+/// plain State, so this stepper keeps the memory of the one trajectory it is given.
+template <class Scheme, class Scene>
+struct TrajectoryStepper : trompo::Stepper<Scheme, Scene> {
+  using trompo::Stepper<Scheme, Scene>::Stepper;
+  mutable typename trompo::Stepper<Scheme, Scene>::Memory memory{};
+  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
+    return trompo::Stepper<Scheme, Scene>::step(s, memory, h);
+  }
+};
+
+template <class Scene>
+std::string with_splitting(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
+  using namespace trompo;
+  const auto method = static_cast<SplittingMethod>(in.choose(5));
+  if (in.byte() & 1) return exercise(TrajectoryStepper<Splitting, Scene>(Splitting(method), scene), s, in, wild);
+  if constexpr (detail::splitting_effects_of<Scene>::conservative)
+    return exercise(TrajectoryStepper<SplittingProjected, Scene>(SplittingProjected(method), scene), s, in, wild);
+  else
+    return exercise(TrajectoryStepper<Splitting, Scene>(Splitting(method), scene), s, in, wild);
+}
+// ---- end splitting --------------------------------------------------------------------------
+
 template <class Scene>
 std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
   using namespace trompo;
   NewtonOptions<double> opt;
   if (in.byte() == 3) opt.max_iterations = static_cast<int>(in.choose(4));  // starved Newton
-  switch (in.choose(7)) {
+  switch (in.choose(8)) {
     case 0: return exercise(Stepper<SimoAlpha, Scene>(SimoAlpha{}, scene, opt), s, in, wild);
     case 1: {
       const double a = wild ? in.raw() : in.unit();
@@ -204,7 +228,8 @@ std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Read
     case 3: return exercise(Stepper<SimoKappa, Scene>(SimoKappa{}, scene, opt), s, in, wild);
     case 4: return exercise(Stepper<GeradinBauchau, Scene>(GeradinBauchau{}, scene, opt), s, in, wild);
     case 5: return exercise(Stepper<GeradinBauchauPaper, Scene>(GeradinBauchauPaper{}, scene, opt), s, in, wild);
-    default: return exercise(Stepper<RK4, Scene>(RK4{}, scene, opt), s, in, wild);
+    case 6: return exercise(Stepper<RK4, Scene>(RK4{}, scene, opt), s, in, wild);
+    default: return with_splitting(scene, s, in, wild);  // splitting
   }
 }
 

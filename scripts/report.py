@@ -25,6 +25,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import report_splitting  # noqa: E402  (the splitting family: its targets and plot styles)
+
 # Targets of the issue (benchmarks, not tests).
 STEP_RATIO_TARGET = 2.0      # Simo-kappa step on HT1 at h = 1e-3 vs our RK4 step
 NEWTON_TARGET = 3.0          # Newton iterations per step, on average
@@ -400,6 +403,7 @@ def write_report(report_dir, context, sweep, steps, machine):
                      f"{fmt(max(r['max_dmu'] for r in good))} | {bad} |")
     L.append("")
     L.append("Full data: `sweep.csv`, `step.csv`, `frontier.csv`, `attitude_only.csv`, `bench.json`.\n")
+    L += report_splitting.section(sweep, steps)  # splitting
     with open(os.path.join(report_dir, "report.md"), "w") as f:
         f.write("\n".join(L))
 
@@ -438,6 +442,8 @@ def series_by_method(rows):
 
 
 def style(method):
+    if report_splitting.is_splitting(method):  # splitting
+        return report_splitting.style(method)
     scheme, variant = split_method(method)
     if scheme.startswith("odeint-dopri5"):
         scheme = "odeint-dopri5"
@@ -456,6 +462,8 @@ def style(method):
 def method_order(m):
     rank = {"simo-alpha": 0, "geradin-bauchau-paper": 1, "simo-kappa": 2, "simo-collocation": 3, "geradin-bauchau": 4,
             "rk4": 10, "odeint-rk4": 11, "odeint-dopri5": 12}
+    if report_splitting.is_splitting(m):  # splitting
+        return report_splitting.method_rank(m)
     base, variant = split_method(m)
     if base.startswith("odeint-dopri5"):
         base = "odeint-dopri5"
@@ -500,7 +508,8 @@ def plot_frontier(report_dir, sweep, fr):
         by = series_by_method(ok_rows(sweep, case))
         for m in sorted(by, key=method_order):
             base = split_method(m)[0]
-            if base not in EXACT_SCHEMES and base not in ("rk4", "odeint-rk4", "odeint-dopri5"):
+            if (base not in EXACT_SCHEMES and base not in ("rk4", "odeint-rk4", "odeint-dopri5")
+                    and not report_splitting.is_splitting(m)):  # splitting
                 continue
             rows = by[m]
             xs = [r["cpu_ms"] for r in rows]
@@ -600,15 +609,17 @@ def main():
     st, fr, att = write_report(report_dir, context, sweep, steps, machine)
 
     plot_grid(report_dir, sweep, "work_precision.png", "cpu_ms", "err_rot", "CPU time per run [ms]",
-              "‖Λ − Λref‖ at the end", "Work–precision: end attitude error vs CPU time", yfloor=1e-16)
+              "‖Λ − Λref‖ at the end", "Work–precision: end attitude error vs CPU time", yfloor=1e-16,
+              methods_filter=report_splitting.in_work_precision)
     plot_grid(report_dir, sweep, "energy_vs_h.png", "h", "max_dH", "h (dopri5: mean step)", "max |ΔH/H| over the run",
               "Energy error vs step size", yfloor=1e-17)
     plot_grid(report_dir, sweep, "newton_vs_h.png", "h", "newton", "h", "Newton iterations per base step",
               "Newton iterations vs step size",
-              methods_filter=lambda m: m not in ("rk4", "odeint-rk4", "odeint-dopri5"),
+              methods_filter=lambda m: m not in ("rk4", "odeint-rk4", "odeint-dopri5") and not report_splitting.is_splitting(m),
               transform=lambda r: r["newton"] / r["stages"], linear_y=True)
     plot_frontier(report_dir, sweep, fr)
     plot_energy_series(report_dir)
+    report_splitting.write_csv(report_dir, sweep, steps)  # splitting
 
     # A short summary on stdout.
     if st:

@@ -43,12 +43,17 @@ using M3 = Eigen::Matrix3d;
 constexpr const char* kUsage =
     "usage: trompo-simulate [options]\n"
     "  --case ht0|ht1|ht2|fb1|fb2   preset from docs/theory.md §7-8 (other flags override it)\n"
-    "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact\n"
+    "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact|splitting\n"
     "  --alpha A                    simo-alpha only (default 0.5)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
     "                               4: triple jump, 6: Kahan-Li)\n"
     "  --composition triple-jump|suzuki-5|kahan-li-9   a named composition (suzuki-5: order 4 in\n"
     "                               5 sub-steps, far smaller error than the triple jump)\n"
+    "  splitting (explicit, spin-exact; docs/splitting.md):\n"
+    "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9   with --scheme splitting\n"
+    "                               (suzuki-5, kahan-li-9: compositions of Strang); default by --order:\n"
+    "                               chin-4a / chin-triple-jump where they apply, else suzuki-5 / kahan-li-9\n"
+    "  --energy-projection          splitting: project H back after each step (keeps pi; no value)\n"
     "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
     "  --mgl W                      M*g*l (0 = no gravity)\n"
     "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
@@ -91,6 +96,9 @@ struct Config {
   bool have_effects = false;  // any of --damping, --torque, --space-torque, --rotor
   std::string ensemble;       ///< --ensemble FILE: initial states of the members (ensemble.hpp)
   unsigned threads = 0;       ///< --threads N (ensembles; 0 = every core)
+  // ---- splitting (--scheme splitting) ----
+  std::optional<std::string> composition_name;  ///< --composition as given (splitting names too)
+  bool energy_projection = false;               ///< --energy-projection
 };
 
 inline double parse_number(const std::string& flag, const std::string& text) {
@@ -188,14 +196,19 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       if (k != 2 && k != 4 && k != 6) throw invalid_input("--order: must be 2, 4 or 6, got " + value);
       c.order = static_cast<int>(k);
       c.order_flag = c.order;
+    } else if (flag == "--energy-projection") {
+      c.energy_projection = true;
     } else if (flag == "--composition") {
-      bool known = false;
+      c.composition_name = value;
+      bool known = value == "strang" || value == "chin-4a" || value == "chin-triple-jump";  // splitting only
       for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9})
         if (value == trompo::to_string(m)) {
           c.composition = m;
           known = true;
         }
-      if (!known) throw invalid_input("--composition: must be triple-jump, suzuki-5 or kahan-li-9, got " + value);
+      if (!known)
+        throw invalid_input("--composition: must be triple-jump, suzuki-5 or kahan-li-9 (with --scheme splitting: strang, "
+                            "chin-4a, chin-triple-jump, suzuki-5 or kahan-li-9), got " + value);
     } else if (flag == "--damping") {
       c.damping = parse_number(flag, value);
       c.have_effects = true;
@@ -225,6 +238,28 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
                         std::to_string(*c.dt));
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  if (c.ensemble.empty() && flags.count("--threads")) throw invalid_input("--threads: only with --ensemble");
+  // ---- splitting: its compositions are its own methods ----
+  if (c.scheme == "splitting") {
+    if (c.composition_name) {
+      if (*c.composition_name == "triple-jump")
+        throw invalid_input("--composition triple-jump: not a splitting method (strang, chin-4a, chin-triple-jump, "
+                            "suzuki-5, kahan-li-9)");
+      const int k = *c.composition_name == "strang" ? 2 : *c.composition_name == "chin-4a" || *c.composition_name == "suzuki-5" ? 4 : 6;
+      if (c.order_flag && *c.order_flag != k)
+        throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
+                            *c.composition_name + " (order " + std::to_string(k) + ")");
+      c.order = k;
+    }
+    if (!c.ensemble.empty())
+      for (const char* f : {"--rotation", "--omega", "--every"})
+        if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
+    return c;
+  }
+  if (c.energy_projection) throw invalid_input("--energy-projection: only with --scheme splitting");
+  if (c.composition_name && !c.composition)
+    throw invalid_input("--composition " + *c.composition_name + ": only with --scheme splitting");
+  // ---- end splitting ----
   if (c.composition) {
     c.order = trompo::CompositionCoefficients<double>::of(*c.composition).order;
     if (c.order_flag && *c.order_flag != c.order)
@@ -239,7 +274,6 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   if (!c.ensemble.empty())
     for (const char* f : {"--rotation", "--omega", "--every"})
       if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
-  if (c.ensemble.empty() && flags.count("--threads")) throw invalid_input("--threads: only with --ensemble");
   return c;
 }
 
@@ -253,6 +287,11 @@ inline Config parse(int argc, char** argv) {
       std::exit(0);
     }
     if (a.rfind("--", 0) != 0) throw invalid_input("unexpected argument '" + a + "'");
+    if (a == "--energy-projection") {  // splitting: the one flag without a value
+      if (flags.count(a)) throw invalid_input(a + ": given twice");
+      flags[a] = "";
+      continue;
+    }
     if (i + 1 >= argc) throw invalid_input(a + ": missing value");
     if (flags.count(a)) throw invalid_input(a + ": given twice");
     flags[a] = argv[++i];
@@ -262,12 +301,19 @@ inline Config parse(int argc, char** argv) {
 
 /// Counts the Newton iterations of the steps since the last written row (a recovered
 /// interval counts all its sub-steps); forwards to the wrapped stepper.
+/// For a scheme with memory (splitting, the families) it has the stepper's Memory and
+/// start(), so that integrate() steps a Trajectory through it.
 template <class StepperT>
 struct CountingStepper {
   using Scalar = double;
+  using Memory = typename StepperT::Memory;
   const StepperT& stepper;
   mutable long iterations = 0;
-  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
+  /// A trajectory with fresh memory (integrate() calls it for a scheme with memory).
+  auto start(const trompo::State<double>& s) const { return stepper.start(s); }
+  /// A State, or a Trajectory for a scheme with memory.
+  template <class StateT>
+  trompo::StepReport<double> step(StateT& s, double h) const {
     const auto rep = stepper.step(s, h);
     iterations += rep.iterations;
     return rep;
@@ -415,9 +461,42 @@ int run_scheme(const Config& c, Scheme scheme, const Scene& scene, const trompo:
   }
 }
 
+// ---- splitting (--scheme splitting) ----
+/// The splitting method of --composition, or the default of --order for this scene.
+template <class Scene>
+trompo::SplittingMethod splitting_method(const Config& c, const Scene& scene) {
+  using trompo::SplittingMethod;
+  if (!c.composition_name) return trompo::Splitting::default_for(scene, c.order).method;
+  for (const auto m : {SplittingMethod::strang, SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump,
+                       SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9})
+    if (*c.composition_name == trompo::to_string(m)) return m;
+  throw invalid_input("--composition: unknown splitting method " + *c.composition_name);
+}
+
+/// Throws invalid_input (exit 2) for a method or projection the scene does not allow.
+template <class Scene>
+void check_splitting(const Config& c, const Scene& scene) {
+  trompo::Splitting(splitting_method(c, scene)).check(scene);
+  if (c.energy_projection && !trompo::detail::splitting_effects_of<Scene>::conservative)
+    throw invalid_input("--energy-projection: needs a conservative scene (gravity only): not with --damping, --torque, "
+                        "--space-torque or --rotor");
+}
+
+template <class Scene, class Out>
+int run_splitting(const Config& c, const Scene& scene, const trompo::State<double>& s0, Out& out) {
+  using namespace trompo;
+  const SplittingMethod m = splitting_method(c, scene);
+  check_splitting(c, scene);
+  if constexpr (detail::splitting_effects_of<Scene>::conservative)
+    if (c.energy_projection) return run(Stepper<SplittingProjected, Scene>(SplittingProjected(m), scene), c, s0, out);
+  return run(Stepper<Splitting, Scene>(Splitting(m), scene), c, s0, out);
+}
+// ---- end splitting ----
+
 template <class Scene, class Out>
 int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<double>& s0, Out& out) {
   using namespace trompo;
+  if (c.scheme == "splitting") return run_splitting(c, scene, s0, out);  // splitting
   if (c.scheme == "simo-alpha") return run_scheme(c, SimoAlpha(c.alpha.value_or(0.5)), scene, s0, out);
   if (c.scheme == "simo-collocation") return run_scheme(c, SimoCollocation{}, scene, s0, out);
   if (c.scheme == "simo-kappa") return run_scheme(c, SimoKappa{}, scene, s0, out);
@@ -441,7 +520,8 @@ inline void validate(const Config& c) {
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
   static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
-                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact"};
+                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
+                                        "splitting"};
   bool known = false;
   for (const char* name : schemes) known = known || c.scheme == name;
   if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
@@ -452,6 +532,15 @@ inline void validate(const Config& c) {
   const ConstantSpaceTorque<double> space_torque(c.space_torque);
   const Rotor<double> rotor(c.rotor);
   (void)gravity, (void)damping, (void)body_torque, (void)space_torque, (void)rotor;
+  // ---- splitting: method and projection against the scene, before any output ----
+  if (c.scheme == "splitting") {
+    if (c.have_effects)
+      check_splitting(c, Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
+                                ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, damping, body_torque,
+                                                                            space_torque, rotor));
+    else if (c.mgl == 0) check_splitting(c, FreeScene<double>(body));
+    else check_splitting(c, HeavyTop<double>(body, gravity));
+  }
   if (c.scheme == "exact" && !c.ensemble.empty())
     throw invalid_input("--ensemble: not with --scheme exact (the closed forms run one top at a time)");
   if (c.scheme == "exact" && c.have_effects)

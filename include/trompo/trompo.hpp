@@ -21,6 +21,7 @@
 #include "trompo/schemes/simo_alpha.hpp"
 #include "trompo/schemes/simo_collocation.hpp"
 #include "trompo/schemes/simo_kappa.hpp"
+#include "trompo/schemes/splitting.hpp"
 #include "trompo/so3.hpp"
 #include "trompo/state.hpp"
 #include "trompo/stepper.hpp"

@@ -1,0 +1,208 @@
+"""The spin-exact splitting's part of the report (bench/methods/splitting.cpp, docs/splitting.md).
+
+Called from report.py: section() gives the target table of the splitting issue as Markdown
+lines (every target row, the configuration behind it, the measured dopri5/splitting CPU-time
+ratio and whether it is met), style() and method_rank() place the splitting series in the
+plots. All ratios come from one trompo-bench run (dopri5 and the splitting timed together).
+
+A ratio is dopri5's CPU time at the cheapest point of its tolerance sweep that reaches the
+bound, over the splitting's cheapest configuration (any method, with or without the energy
+projection) that reaches it; in brackets, the same with both sides interpolated log-log
+between the grid points around the bound (the grids are coarse: √2 in h, half a decade in
+tolerance).
+"""
+import math
+import os
+
+SCHEMES = ("splitting", "splitting-projected")
+METHOD_COLORS = {
+    "strang": "#17becf",
+    "suzuki-5": "#bcbd22",
+    "kahan-li-9": "#e377c2",
+    "chin-4a": "#7f7f7f",
+    "chin-tj": "#393b79",
+}
+
+
+def parse(method):
+    """'splitting-projected-chin-4a' -> ('splitting-projected', 'chin-4a'); None if not a splitting."""
+    for s in ("splitting-projected", "splitting"):
+        if method.startswith(s + "-"):
+            return s, method[len(s) + 1:]
+    return None
+
+
+def is_splitting(method):
+    return parse(method) is not None
+
+
+def style(method):
+    scheme, m = parse(method)
+    return {"color": METHOD_COLORS.get(m, "gray"), "linestyle": "-" if scheme == "splitting" else "--",
+            "linewidth": 1.6, "marker": "D", "markersize": 2.5}
+
+
+def method_rank(method):
+    scheme, m = parse(method)
+    names = list(METHOD_COLORS)
+    return (20 + (scheme == "splitting-projected"), names.index(m) if m in names else 9)
+
+
+def in_work_precision(method):
+    """The work–precision plot shows the unprojected splittings (the projection changes the
+    energy, not the attitude error); the joint plot shows both."""
+    p = parse(method)
+    return p is None or p[0] == "splitting"
+
+
+def _ok(sweep, case):
+    return [r for r in sweep if not r["error"] and r["case"] == case]
+
+
+def _cheapest(rows, pred):
+    good = [r for r in rows if pred(r)]
+    return min(good, key=lambda r: r["cpu_ms"]) if good else None
+
+
+def _crossing(rows, ratio):
+    """CPU time where a method's line first gets ratio(r) <= 1, interpolated log-log."""
+    rows = sorted(rows, key=lambda r: r["cpu_ms"])
+    for j, r in enumerate(rows):
+        if ratio(r) <= 1:
+            if j == 0:
+                return r["cpu_ms"]
+            a, b = rows[j - 1], r
+            fa, fb = math.log(max(ratio(a), 1e-300)), math.log(max(ratio(b), 1e-300))
+            if fa <= fb:
+                return b["cpu_ms"]
+            w = fa / (fa - fb)
+            return math.exp(math.log(a["cpu_ms"]) + w * (math.log(b["cpu_ms"]) - math.log(a["cpu_ms"])))
+    return None
+
+
+def _family_crossing(rows, pred, ratio):
+    by = {}
+    for r in rows:
+        if pred(r):
+            by.setdefault(r["method"], []).append(r)
+    best = None
+    for m, rs in by.items():
+        c = _crossing(rs, ratio)
+        if c is not None and (best is None or c < best[0]):
+            best = (c, m)
+    return best
+
+
+def _is_split(r):
+    return r["scheme"] in SCHEMES
+
+
+def _is_dopri(r):
+    return r["method"] == "odeint-dopri5"
+
+
+def _is_rk4(r):
+    return r["method"] == "odeint-rk4"
+
+
+def _config(r):
+    if r is None:
+        return "not reached"
+    if _is_dopri(r):
+        return f"dopri5 tol {r['tol']:.1e}: {r['cpu_ms']:.3g} ms"
+    return f"{r['method']} h = {r['h']:.3g}: {r['cpu_ms']:.3g} ms"
+
+
+def measure(sweep, case, bound_rot, bound_dH=None, baseline=_is_dopri):
+    """(splitting row, baseline row, grid ratio, interpolated ratio) at a bound."""
+    rows = _ok(sweep, case)
+
+    def reach(r):
+        return r["err_rot"] <= bound_rot and (bound_dH is None or r["max_dH"] <= bound_dH)
+
+    def ratio(r):
+        x = r["err_rot"] / bound_rot
+        return max(x, r["max_dH"] / bound_dH) if bound_dH else x
+
+    s = _cheapest(rows, lambda r: _is_split(r) and reach(r))
+    b = _cheapest(rows, lambda r: baseline(r) and reach(r))
+    grid = b["cpu_ms"] / s["cpu_ms"] if s and b else None
+    si = _family_crossing(rows, _is_split, ratio)
+    bi = _family_crossing(rows, baseline, ratio)
+    interp = bi[0] / si[0] if si and bi else None
+    return s, b, grid, interp
+
+
+def _fmt_ratio(x):
+    return "—" if x is None else (f"{x:.1f}×" if x < 100 else f"{x:.0f}×")
+
+
+def section(sweep, steps):
+    """The Markdown lines of the splitting section (empty if the run has no splitting)."""
+    if not any(_is_split(r) for r in sweep):
+        return []
+    L = ["", "## Spin-exact splitting: targets", "",
+         "Ratios are dopri5's CPU time over the splitting's (> 1: the splitting is cheaper), both from this run; "
+         "each side is its cheapest grid point reaching the bound (in brackets: interpolated to the bound). "
+         "The configuration behind each row is the cheapest splitting reaching the bound, any method, with or "
+         "without the energy projection.", "",
+         "| target | case, bound | splitting (cheapest) | baseline (cheapest) | measured | met |",
+         "|---|---|---|---|---|---|"]
+    rows_out = []
+
+    def add(target, where, s, b, grid, interp, need, baseline_name="dopri5"):
+        met = None if grid is None else grid >= need
+        if grid is None and s is not None and b is None:
+            verdict = f"{baseline_name} not reached"
+        else:
+            verdict = "yes" if met else ("no" if met is not None else "—")
+        L.append(f"| {target} | {where} | {_config(s)} | {_config(b)} | {_fmt_ratio(grid)} "
+                 f"[{_fmt_ratio(interp)}] | {verdict} |")
+        rows_out.append((target, where, grid, interp, verdict))
+
+    # Per-step cost.
+    a, o = steps.get(("ht1", "splitting-strang")), steps.get(("ht1", "odeint-rk4"))
+    if a and o:
+        r = a["ns"] / o["ns"]
+        L.append(f"| Strang step ≤ 0.6× odeint runge_kutta4 step | HT1, h = 1e-3 | Strang {a['ns']:.0f} ns | "
+                 f"runge_kutta4 {o['ns']:.0f} ns | {r:.2f}× of rk4 | {'yes' if r <= 0.6 else 'no'} |")
+    for case, need in (("ht0", 10), ("ht1", 10), ("ht2", 40)):
+        for bound in (1e-6, 1e-8, 1e-10):
+            add(f"attitude alone, t = {'2' if case == 'ht2' else '10'}: ≥ {need}×", f"{case.upper()}, ‖ΔΛ‖ ≤ {bound:g}",
+                *measure(sweep, case, bound), need)
+    for bound in (1e-6, 1e-8):
+        add("attitude alone, t = 1000: ≥ 12×", f"HT1, ‖ΔΛ‖ ≤ {bound:g}", *measure(sweep, "ht1-t1000", bound), 12)
+    add("attitude alone, t = 1000: ≥ 40×", "HT0, ‖ΔΛ‖ ≤ 1e-6", *measure(sweep, "ht0-t1000", 1e-6), 40)
+    s, b, grid, interp = measure(sweep, "ht0-t1000", 1e-8, baseline=_is_rk4)
+    add("t = 1000, HT0 at 1e-8 in ≤ 1/60 of RK4's time", "HT0, ‖ΔΛ‖ ≤ 1e-8 (baseline: runge_kutta4)",
+        s, b, grid, interp, 60, "runge_kutta4")
+    d = measure(sweep, "ht0-t1000", 1e-8)
+    L.append(f"| (dopri5 at t = 1000, HT0, 1e-8) | HT0, ‖ΔΛ‖ ≤ 1e-8 | {_config(d[0])} | {_config(d[1])} | "
+             f"{_fmt_ratio(d[2])} | {'dopri5 not reached' if d[1] is None else ''} |")
+    for case, need in (("ht1", 30), ("ht0", 45), ("ht2", 300)):
+        add(f"joint bound, t = {'2' if case == 'ht2' else '10'}: ≥ {need}×",
+            f"{case.upper()}, ‖ΔΛ‖ ≤ 1e-6 and max|ΔH/H| ≤ 1e-12", *measure(sweep, case, 1e-6, 1e-12), need)
+    add("joint bound, t = 1000: ≥ 40×", "HT1, ‖ΔΛ‖ ≤ 1e-6 and max|ΔH/H| ≤ 1e-12",
+        *measure(sweep, "ht1-t1000", 1e-6, 1e-12), 40)
+    add("fast asymmetric top (HTA, full inertia): ≥ 2×", "HTA, ‖ΔΛ‖ ≤ 1e-8", *measure(sweep, "hta", 1e-8), 2)
+    add("fast asymmetric top (HT2A, full inertia): ≥ 2×", "HT2A, ‖ΔΛ‖ ≤ 1e-8", *measure(sweep, "ht2a", 1e-8), 2)
+    for bound in (1e-6, 1e-8):
+        s, b, grid, interp = measure(sweep, "fb1", bound)
+        L.append(f"| FB1: no target (closed form or dopri5) | FB1, ‖ΔΛ‖ ≤ {bound:g} | {_config(s)} | {_config(b)} | "
+                 f"{_fmt_ratio(grid)} [{_fmt_ratio(interp)}] | — |")
+    L += ["", "HTA: J = R diag(5, 5.5, 1) Rᵀ with R = exp((0.3, −0.2, 0.4)^), E = R e3, Mgl = 20, "
+          "Λ0 = exp(0.05 ê1), Ω0 = R (0, 0, 50), t = 10; reference: a converged Kahan–Li splitting run "
+          "(bench/methods/splitting.cpp). HT2A: HT2 made asymmetric, J = R diag(15.234375, 0.46875, 15.6) Rᵀ, "
+          "E = R e2, Mgl = 15·9.81, Λ0 = I, Ω0 = R (0, 150, −4.61538), t = 2 (same R); reference likewise.", ""]
+    return L
+
+
+def write_csv(report_dir, sweep, steps):
+    """splitting_targets.csv: the rows of the target table."""
+    import csv
+    with open(os.path.join(report_dir, "splitting_targets.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["line"])
+        for line in section(sweep, steps):
+            if line.startswith("| ") and not line.startswith("| target") and not line.startswith("|---"):
+                w.writerow([line])

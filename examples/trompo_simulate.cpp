@@ -37,6 +37,11 @@ constexpr const char* kUsage =
     "  --case ht0|ht1|ht2|fb1|fb2   preset from THEORY 7-8 (other flags override it)\n"
     "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact\n"
     "  --alpha A                    simo-alpha only (default 0.5)\n"
+    // ---- families (docs/families.md) ----
+    "  --scheme lie-gen-alpha|constrained-trapezoid|energy-decaying   the other families\n"
+    "  --rho-inf R                  lie-gen-alpha only: spectral radius at infinity in [0, 1] (default 0.8)\n"
+    "  --chi X                      energy-decaying only: dissipation in [0, 1] (default 0: energy-momentum)\n"
+    "  --chi-schedule constant|sensor   energy-decaying only (default constant)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
     "                               4: triple jump, 6: Kahan-Li)\n"
     "  --composition triple-jump|suzuki-5|kahan-li-9   a named composition (suzuki-5: order 4 in\n"
@@ -57,6 +62,10 @@ constexpr const char* kUsage =
 struct Config {
   std::string scheme = "simo-kappa";
   std::optional<double> alpha;
+  // ---- families (docs/families.md) ----
+  std::optional<double> rho_inf;           ///< --rho-inf (lie-gen-alpha)
+  std::optional<double> chi;               ///< --chi (energy-decaying)
+  std::optional<std::string> chi_schedule;  ///< --chi-schedule (energy-decaying)
   M3 inertia = M3::Zero();
   bool have_inertia = false;
   bool unphysical_ok = false;  // only FB2's preset inertia (a test problem) may break J1+J2 >= J3
@@ -154,6 +163,10 @@ Config parse(int argc, char** argv) {
     if (flag == "--case") continue;
     else if (flag == "--scheme") c.scheme = value;
     else if (flag == "--alpha") c.alpha = parse_number(flag, value);
+    // ---- families (docs/families.md) ----
+    else if (flag == "--rho-inf") c.rho_inf = parse_number(flag, value);
+    else if (flag == "--chi") c.chi = parse_number(flag, value);
+    else if (flag == "--chi-schedule") c.chi_schedule = value;
     else if (flag == "--inertia") {
       const auto v = parse_list(flag, value);
       if (v.size() != 3 && v.size() != 6)
@@ -226,6 +239,22 @@ Config parse(int argc, char** argv) {
   if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
     throw invalid_input("--order: simo-alpha is symmetric only for alpha = 0.5");
   if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
+  // ---- families (docs/families.md): parameters and what the schemes accept ----
+  if (c.rho_inf && c.scheme != "lie-gen-alpha") throw invalid_input("--rho-inf: only with --scheme lie-gen-alpha");
+  if (c.rho_inf && !(*c.rho_inf >= 0 && *c.rho_inf <= 1))
+    throw invalid_input("--rho-inf: must be in [0, 1], got " + std::to_string(*c.rho_inf));
+  if ((c.chi || c.chi_schedule) && c.scheme != "energy-decaying")
+    throw invalid_input(std::string(c.chi ? "--chi" : "--chi-schedule") + ": only with --scheme energy-decaying");
+  if (c.chi && !(*c.chi >= 0 && *c.chi <= 1)) throw invalid_input("--chi: must be in [0, 1], got " + std::to_string(*c.chi));
+  if (c.chi_schedule && *c.chi_schedule != "constant" && *c.chi_schedule != "sensor")
+    throw invalid_input("--chi-schedule: must be constant or sensor, got '" + *c.chi_schedule + "'");
+  const bool family = c.scheme == "lie-gen-alpha" || c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying";
+  if (family && c.order != 2)
+    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
+                        " is not composed by the CLI");
+  if ((c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying") && c.have_effects)
+    throw invalid_input("--scheme " + c.scheme +
+                        ": the free body or the heavy top only (no --damping, --torque, --space-torque or --rotor)");
   return c;
 }
 
@@ -236,12 +265,24 @@ struct CountingStepper {
   using Scalar = double;
   const StepperT& stepper;
   mutable long iterations = 0;
-  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
+  /// A State, or a Trajectory for a scheme with memory (families, docs/families.md).
+  template <class StateT>
+  trompo::StepReport<double> step(StateT& s, double h) const {
     const auto rep = stepper.step(s, h);
     iterations += rep.iterations;
     return rep;
   }
 };
+
+/// Whether the stepper's scheme carries memory between steps (gen-α and the families):
+/// run() then steps a Trajectory.
+template <class StepperT>
+constexpr bool steps_trajectory() {
+  if constexpr (requires { typename StepperT::Memory; })
+    return !std::is_same_v<typename StepperT::Memory, trompo::NoMemory>;
+  else
+    return false;
+}
 
 const char* const kHeader = "t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations\n";
 
@@ -281,7 +322,16 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, std::
       counting.iterations = 0;
     }
   };
-  const auto sum = trompo::integrate(counting, s, *c.t_end, *c.dt, observer);
+  const auto sum = [&] {
+    if constexpr (steps_trajectory<StepperT>()) {  // families: the memory travels with the state
+      auto traj = stepper.start(s);
+      const auto result = trompo::integrate(counting, traj, *c.t_end, *c.dt, observer);
+      s = traj.state();
+      return result;
+    } else {
+      return trompo::integrate(counting, s, *c.t_end, *c.dt, observer);
+    }
+  }();
   if (sum.recovered > 0)
     std::fprintf(stderr, "trompo-simulate: %lld interval(s) recovered by sub-stepping (%lld failed attempts, %lld sub-steps, depth <= %d)\n",
                  static_cast<long long>(sum.recovered), static_cast<long long>(sum.failures),
@@ -354,6 +404,16 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
   if (c.scheme == "geradin-bauchau") return run_scheme(c, GeradinBauchau{}, scene, s0, out);
   if (c.scheme == "geradin-bauchau-paper") return run_scheme(c, GeradinBauchauPaper{}, scene, s0, out);
   if (c.scheme == "rk4") return run_scheme(c, RK4{}, scene, s0, out);
+  // ---- families (docs/families.md): plain steppers (not composed) ----
+  if (c.scheme == "lie-gen-alpha") return run(Stepper<LieGenAlpha, Scene>(LieGenAlpha(c.rho_inf.value_or(0.8)), scene), c, s0, out);
+  if constexpr (!Scene::has_applied_torque) {
+    if (c.scheme == "constrained-trapezoid")
+      return run(Stepper<ConstrainedTrapezoid, Scene>(ConstrainedTrapezoid{}, scene), c, s0, out);
+    if (c.scheme == "energy-decaying") {
+      const ChiSchedule schedule = c.chi_schedule.value_or("constant") == "sensor" ? ChiSchedule::sensor : ChiSchedule::constant;
+      return run(Stepper<EnergyDecaying, Scene>(EnergyDecaying(c.chi.value_or(0.0), schedule), scene), c, s0, out);
+    }
+  }
   throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
 }
 
@@ -373,7 +433,8 @@ int main(int argc, char** argv) {
     s0.validate();
     // Validate the scheme name and the gravity parameters before writing anything.
     static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
-                                          "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact"};
+                                          "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
+                                          "lie-gen-alpha", "constrained-trapezoid", "energy-decaying"};
     bool known = false;
     for (const char* name : schemes) known = known || c.scheme == name;
     if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");

@@ -258,7 +258,7 @@ def plot_large(report_dir, large):
 
 
 def large_table(large):
-    L = ["| method | H/H0 t = 1 | t = 5 | t = 10 | max Δμ/μ | Ω3(10) | max |Ω⊥| | max one-step ΔH/H0 | Newton / step |",
+    L = ["| method | H/H0 t = 1 | t = 5 | t = 10 | max Δμ/μ | Ω3(10) | max ‖Ω⊥‖ | max one-step ΔH/H0 | Newton / step |",
          "|---|---|---|---|---|---|---|---|---|"]
     for m in sorted(large, key=lambda m: ([f for f, _, _ in FAMILIES].index(family_of(m)), m)):
         d = large[m]

@@ -674,3 +674,75 @@ TEST_CASE("Families: backward integration and extreme inertia ratios (1e-3, the 
     CHECK(d.max_dH <= 1e-12);
   }
 }
+
+namespace {
+/// Steps n times with h on a trajectory; a failed step must leave state and memory
+/// bit-identical and is then covered by integrate() (sub-steps). Returns the failures.
+template <class Scheme, class SceneT>
+int step_or_recover(const Scheme& scheme, const SceneT& scene, const State<double>& s0, double h, int n,
+                    double& max_dH, double& max_dmu) {
+  Stepper<Scheme, SceneT> st(scheme, scene);
+  auto traj = st.start(s0);
+  const double H0 = scene.energy(s0), mu0 = scene.momentum_map(s0), pi0 = scene.spatial_momentum(s0).norm();
+  int failed = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto before = traj;
+    if (!st.step(traj, h).ok()) {
+      ++failed;
+      REQUIRE(trompo_test::same_bits(traj.state(), before.state()));
+      REQUIRE(same_memory(traj.memory, before.memory));
+      const auto sum = integrate(st, traj, traj.time + h, h);
+      REQUIRE(sum.ok());
+    }
+    REQUIRE(traj.omega.allFinite());
+    max_dH = std::max(max_dH, std::abs(scene.energy(traj) - H0) / std::abs(H0));
+    max_dmu = std::max(max_dmu, std::abs(scene.momentum_map(traj) - mu0) / pi0);
+  }
+  return failed;
+}
+}  // namespace
+
+TEST_CASE("Families at the largest steps: HT0 at h = 0.1, HT2 at h = 0.02 succeed or recover with the invariants kept",
+          "[families][hard]") {
+  const auto ht0 = cases::ht0<double>();
+  const auto ht2 = cases::ht2<double>();
+  for (const auto* c : {&ht0, &ht2}) {
+    const double h = c == &ht0 ? 0.1 : 0.02;
+    INFO(c->name << ", h = " << h);
+    double dH = 0, dmu = 0;
+    const int f_ct = step_or_recover(ConstrainedTrapezoid{}, c->scene, c->initial, h, 50, dH, dmu);
+    CHECK(dH <= 1e-12);
+    dH = dmu = 0;
+    const int f_em = step_or_recover(EnergyDecaying(0.0), c->scene, c->initial, h, 50, dH, dmu);
+    CHECK(dH <= 1e-12);
+    CHECK(dmu <= 1e-12);
+    dH = dmu = 0;
+    const int f_ed = step_or_recover(EnergyDecaying(1.0 / 9, ChiSchedule::sensor), c->scene, c->initial, h, 50, dH, dmu);
+    CHECK(dmu <= 1e-12);
+    dH = dmu = 0;
+    const int f_ga = step_or_recover(LieGenAlpha(0.8), c->scene, c->initial, h, 50, dH, dmu);
+    WARN(c->name << " h = " << h << ", failed single steps of 50 (recovered by sub-steps): constrained " << f_ct
+                 << ", chi 0 " << f_em << ", sensor " << f_ed << ", gen-alpha " << f_ga);
+  }
+}
+
+TEST_CASE("Families: FB1 to t = 100 (the intermediate-axis flips), chi = 0 keeps H and the whole pi, constrained H",
+          "[families][hard]") {
+  const auto c = cases::fb1<double>();
+  Stepper<EnergyDecaying, cases::Free<double>> st(EnergyDecaying(0.0), c.scene);
+  auto traj = st.start(c.initial);
+  const double H0 = c.scene.energy(c.initial);
+  const Vec3 pi0 = c.scene.spatial_momentum(c.initial);
+  double dH = 0, dpi = 0;
+  for (int k = 0; k < 10000; ++k) {
+    REQUIRE(st.step(traj, 0.01).ok());
+    dH = std::max(dH, std::abs(c.scene.energy(traj) - H0) / H0);
+    dpi = std::max(dpi, (c.scene.spatial_momentum(traj) - pi0).norm() / pi0.norm());
+  }
+  CHECK(dH <= 1e-12);
+  CHECK(dpi <= 1e-12);
+  CHECK(keeps<cases::Free<double>>(EnergyDecaying(0.0)).spatial_momentum);
+  const FamilyRun ct = run_family(ConstrainedTrapezoid{}, c.scene, c.initial, 0.01, 10000);
+  CHECK(ct.failures == 0);
+  CHECK(ct.max_dH <= 1e-12);
+}

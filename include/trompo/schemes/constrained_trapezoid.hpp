@@ -40,13 +40,14 @@ struct ConstrainedTrapezoidMemory {
 
 /// Constrained trapezoid [T17]–[T20]: energy exact by a Lagrange multiplier.
 struct ConstrainedTrapezoid {
-  static constexpr const char* name = "constrained-trapezoid";
-  static constexpr int order = 2;
+  static constexpr const char* name = "constrained-trapezoid";  ///< CLI and report name
+  static constexpr int order = 2;                                ///< order of accuracy
   /// The multiplier acts along the gradient at t_{n+1} only: not symmetric.
   static constexpr bool symmetric = false;
   /// H exactly; μ and π drift as the plain trapezoid's [T20].
   template <class Scene>
   static constexpr Keeps keeps{.energy = true};
+  /// The per-trajectory memory: the last increment and multiplier (scheme.hpp).
   template <class Scene>
   using Memory = ConstrainedTrapezoidMemory<typename Scene::Scalar>;
 

@@ -55,14 +55,15 @@ struct EnergyDecayingMemory {
 
 /// Energy-decaying, momentum-map-exact scheme [T12]–[T16]; χ = 0: energy-momentum.
 struct EnergyDecaying {
-  static constexpr const char* name = "energy-decaying";
-  static constexpr int order = 2;
+  static constexpr const char* name = "energy-decaying";  ///< CLI and report name
+  static constexpr int order = 2;  ///< for χ = 0 and the sensor (order_of_accuracy())
   static constexpr bool symmetric = true;  ///< for χ = 0 only (is_symmetric())
   /// μ exactly, π on the free body, and H_{n+1} ≤ H_n at every step; H exactly for χ = 0
   /// (kept()).
   template <class Scene>
   static constexpr Keeps keeps{.energy = false, .momentum_map = true, .spatial_momentum = Scene::is_free,
                                .energy_decays = true};
+  /// The per-trajectory memory: the last increment and the sensor's history (scheme.hpp).
   template <class Scene>
   using Memory = EnergyDecayingMemory<typename Scene::Scalar>;
 

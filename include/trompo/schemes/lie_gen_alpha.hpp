@@ -39,12 +39,13 @@ struct GenAlphaMemory {
 
 /// Lie-group generalised-α on SO(3) ([T7]–[T11]).
 struct LieGenAlpha {
-  static constexpr const char* name = "lie-gen-alpha";
-  static constexpr int order = 2;
-  static constexpr bool symmetric = false;
+  static constexpr const char* name = "lie-gen-alpha";  ///< CLI and report name
+  static constexpr int order = 2;                       ///< for every ρ∞ and both starts
+  static constexpr bool symmetric = false;              ///< not composable
   /// Nothing exactly: neither H nor μ ([T11]; measured in tests/test_families.cpp).
   template <class Scene>
   static constexpr Keeps keeps{};
+  /// The per-trajectory memory: Ω̇_n and a_n (scheme.hpp).
   template <class Scene>
   using Memory = GenAlphaMemory<typename Scene::Scalar>;
 
@@ -65,7 +66,10 @@ struct LieGenAlpha {
 
   /// The coefficients of [T7] (Chung–Hulbert convention).
   struct Coefficients {
-    double alpha_m, alpha_f, beta, gamma;
+    double alpha_m;  ///< α_m, the weight of a_n
+    double alpha_f;  ///< α_f, the weight of Ω̇_n
+    double beta;     ///< β, of the rotation increment
+    double gamma;    ///< γ, of the velocity update
   };
   /// α_m = (2ρ∞ − 1)/(ρ∞ + 1), α_f = ρ∞/(ρ∞ + 1), γ = ½ + α_f − α_m, β = ¼(γ + ½)² [T7].
   Coefficients coefficients() const {

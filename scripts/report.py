@@ -608,15 +608,27 @@ def main():
     write_csvs(report_dir, sweep, steps)
     st, fr, att = write_report(report_dir, context, sweep, steps, machine)
 
-    plot_grid(report_dir, sweep, "work_precision.png", "cpu_ms", "err_rot", "CPU time per run [ms]",
+    # ---- families (scripts/report_families.py, docs/families.md) ----------------------------
+    # The core figures keep the energy-momentum schemes and the baselines; the other families
+    # get their own figures, and the main work-precision figure (work_precision.png) shows
+    # each family's lower envelope.
+    import report_families
+    core = lambda m: report_families.family_of(m) in ("energy-momentum", "explicit")  # noqa: E731
+    # The splittings in the core figure too: they are what the energy-momentum schemes compete with.
+    core_wp = lambda m: core(m) or (report_families.family_of(m) == "splitting" and report_splitting.in_work_precision(m))  # noqa: E731
+    plot_grid(report_dir, sweep, "work_precision_core.png", "cpu_ms", "err_rot", "CPU time per run [ms]",
               "‖Λ − Λref‖ at the end", "Work–precision: end attitude error vs CPU time", yfloor=1e-16,
-              methods_filter=report_splitting.in_work_precision)
+              methods_filter=core_wp)
     plot_grid(report_dir, sweep, "energy_vs_h.png", "h", "max_dH", "h (dopri5: mean step)", "max |ΔH/H| over the run",
-              "Energy error vs step size", yfloor=1e-17)
+              "Energy error vs step size", yfloor=1e-17, methods_filter=core)
     plot_grid(report_dir, sweep, "newton_vs_h.png", "h", "newton", "h", "Newton iterations per base step",
               "Newton iterations vs step size",
-              methods_filter=lambda m: m not in ("rk4", "odeint-rk4", "odeint-dopri5") and not report_splitting.is_splitting(m),
+              methods_filter=lambda m: core(m) and m not in ("rk4", "odeint-rk4", "odeint-dopri5"),
               transform=lambda r: r["newton"] / r["stages"], linear_y=True)
+    families_md = report_families.write(report_dir, sweep, steps)
+    with open(os.path.join(report_dir, "report.md"), "a") as f:
+        f.write("\n" + families_md)
+    # ---- end families ----------------------------------------------------------------------
     plot_frontier(report_dir, sweep, fr)
     plot_energy_series(report_dir)
     report_splitting.write_csv(report_dir, sweep, steps)  # splitting

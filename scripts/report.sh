@@ -58,7 +58,9 @@ echo "== trompo-bench: long-run energy series -> $out/energy_series.csv"
 echo "== report"
 /usr/bin/python3 scripts/report.py "$out"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
-  cp "$out"/{work_precision,frontier,energy_vs_h,energy_over_time,newton_vs_h}.png docs/img/
+  cp "$out"/{work_precision,work_precision_core,frontier,energy_vs_h,energy_over_time,newton_vs_h}.png docs/img/
+  mkdir -p docs/img/families  # the families (docs/families.md, scripts/report_families.py)
+  cp "$out"/{work_precision,work_precision_gen-alpha,work_precision_constrained,work_precision_energy-decaying,invariants_families,large_step_ht0}.png docs/img/families/
   echo "   plots copied to docs/img/; tables written into docs/accuracy.md (check the figures quoted in its prose)"
 fi
 echo "== done in $(($(date +%s) - start)) s (after the build): $out/report.md"

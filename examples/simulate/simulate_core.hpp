@@ -54,6 +54,11 @@ constexpr const char* kUsage =
     "                               (suzuki-5, kahan-li-9: compositions of Strang); default by --order:\n"
     "                               chin-4a / chin-triple-jump where they apply, else suzuki-5 / kahan-li-9\n"
     "  --energy-projection          splitting: project H back after each step (keeps pi; no value)\n"
+    // ---- families (docs/families.md) ----
+    "  --scheme lie-gen-alpha|constrained-trapezoid|energy-decaying   the other families\n"
+    "  --rho-inf R                  lie-gen-alpha only: spectral radius at infinity in [0, 1] (default 0.8)\n"
+    "  --chi X                      energy-decaying only: dissipation in [0, 1] (default 0: energy-momentum)\n"
+    "  --chi-schedule constant|sensor   energy-decaying only (default constant)\n"
     "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
     "  --mgl W                      M*g*l (0 = no gravity)\n"
     "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
@@ -99,6 +104,10 @@ struct Config {
   // ---- splitting (--scheme splitting) ----
   std::optional<std::string> composition_name;  ///< --composition as given (splitting names too)
   bool energy_projection = false;               ///< --energy-projection
+  // ---- families (docs/families.md) ----
+  std::optional<double> rho_inf;            ///< --rho-inf (lie-gen-alpha)
+  std::optional<double> chi;                ///< --chi (energy-decaying)
+  std::optional<std::string> chi_schedule;  ///< --chi-schedule (energy-decaying)
 };
 
 inline double parse_number(const std::string& flag, const std::string& text) {
@@ -222,6 +231,10 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       c.rotor = parse_vector(flag, value);
       c.have_effects = true;
     }
+    // ---- families (docs/families.md) ----
+    else if (flag == "--rho-inf") c.rho_inf = parse_number(flag, value);
+    else if (flag == "--chi") c.chi = parse_number(flag, value);
+    else if (flag == "--chi-schedule") c.chi_schedule = value;
     else if (flag == "--ensemble") c.ensemble = value;
     else if (flag == "--threads") {
       const double k = parse_number(flag, value);
@@ -239,6 +252,18 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
                         std::to_string(*c.dt));
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
   if (c.ensemble.empty() && flags.count("--threads")) throw invalid_input("--threads: only with --ensemble");
+  // ---- families (docs/families.md): parameters and what the schemes accept ----
+  if (c.rho_inf && c.scheme != "lie-gen-alpha") throw invalid_input("--rho-inf: only with --scheme lie-gen-alpha");
+  if (c.rho_inf && !(*c.rho_inf >= 0 && *c.rho_inf <= 1))
+    throw invalid_input("--rho-inf: must be in [0, 1], got " + std::to_string(*c.rho_inf));
+  if ((c.chi || c.chi_schedule) && c.scheme != "energy-decaying")
+    throw invalid_input(std::string(c.chi ? "--chi" : "--chi-schedule") + ": only with --scheme energy-decaying");
+  if (c.chi && !(*c.chi >= 0 && *c.chi <= 1)) throw invalid_input("--chi: must be in [0, 1], got " + std::to_string(*c.chi));
+  if (c.chi_schedule && *c.chi_schedule != "constant" && *c.chi_schedule != "sensor")
+    throw invalid_input("--chi-schedule: must be constant or sensor, got '" + *c.chi_schedule + "'");
+  if ((c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying") && c.have_effects)
+    throw invalid_input("--scheme " + c.scheme +
+                        ": the free body or the heavy top only (no --damping, --torque, --space-torque or --rotor)");
   // ---- splitting: its compositions are its own methods ----
   if (c.scheme == "splitting") {
     if (c.composition_name) {
@@ -266,6 +291,11 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
                           trompo::to_string(*c.composition) + " (order " + std::to_string(c.order) + ")");
   }
+  // ---- families: not composed by the CLI ----
+  const bool family = c.scheme == "lie-gen-alpha" || c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying";
+  if (family && c.order != 2)
+    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
+                        " is not composed by the CLI");
   if (c.order != 2 && (c.scheme == "rk4" || c.scheme == "exact"))
     throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " + c.scheme);
   if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
@@ -503,6 +533,16 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
   if (c.scheme == "geradin-bauchau") return run_scheme(c, GeradinBauchau{}, scene, s0, out);
   if (c.scheme == "geradin-bauchau-paper") return run_scheme(c, GeradinBauchauPaper{}, scene, s0, out);
   if (c.scheme == "rk4") return run_scheme(c, RK4{}, scene, s0, out);
+  // ---- families (docs/families.md): plain steppers (not composed) ----
+  if (c.scheme == "lie-gen-alpha") return run(Stepper<LieGenAlpha, Scene>(LieGenAlpha(c.rho_inf.value_or(0.8)), scene), c, s0, out);
+  if constexpr (!Scene::has_applied_torque) {
+    if (c.scheme == "constrained-trapezoid")
+      return run(Stepper<ConstrainedTrapezoid, Scene>(ConstrainedTrapezoid{}, scene), c, s0, out);
+    if (c.scheme == "energy-decaying") {
+      const ChiSchedule schedule = c.chi_schedule.value_or("constant") == "sensor" ? ChiSchedule::sensor : ChiSchedule::constant;
+      return run(Stepper<EnergyDecaying, Scene>(EnergyDecaying(c.chi.value_or(0.0), schedule), scene), c, s0, out);
+    }
+  }
   throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
 }
 
@@ -521,7 +561,8 @@ inline void validate(const Config& c) {
   // Validate the scheme name and the gravity parameters before writing anything.
   static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
                                         "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
-                                        "splitting"};
+                                        "splitting",       "lie-gen-alpha",         "constrained-trapezoid",
+                                        "energy-decaying"};
   bool known = false;
   for (const char* name : schemes) known = known || c.scheme == name;
   if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");

@@ -85,6 +85,25 @@ check "damping: H decreases monotonically" '[ $rc -eq 0 ] && awk -F, "NR>2 && \$
 check "rotor: H and pi3 exact (free body with rotor)" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; p=\$18} NR>2{d=(\$14-h)/h; e=\$18-p; if(d<0)d=-d; if(e<0)e=-e; if(d>1e-12||e>1e-12) bad=1} END{exit bad}" "$tmp/rotor.csv"'
 check "rotor: pi includes h_r at t = 0 (pi3 = 3*0.01 + 0.5)" 'awk -F, "NR==2{d=\$18-0.53; if(d<0)d=-d; exit !(d<1e-15)}" "$tmp/rotor.csv"'
 
+# ---- families (docs/families.md) -------------------------------------------------------
+for bad in "--case ht1 --scheme lie-gen-alpha --rho-inf 1.5" "--case ht1 --scheme lie-gen-alpha --rho-inf -0.1" \
+           "--case ht1 --scheme lie-gen-alpha --rho-inf nan" "--case ht1 --rho-inf 0.5" \
+           "--case ht1 --scheme energy-decaying --chi 2" "--case ht1 --scheme energy-decaying --chi -1" \
+           "--case ht1 --scheme energy-decaying --chi 0.1 --chi-schedule smooth" "--case ht1 --chi 0.1" \
+           "--case ht1 --scheme lie-gen-alpha --chi-schedule sensor" "--case ht1 --scheme constrained-trapezoid --damping 1" \
+           "--case ht1 --scheme energy-decaying --rotor 0,0,1" "--case ht1 --scheme lie-gen-alpha --order 4"; do
+  "$sim" $bad >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "exit 2, no rows, one-line reason: $bad" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ]'
+done
+"$sim" --case ht1 --scheme constrained-trapezoid --t-end 1 --every 10 >"$tmp/ct.csv"; rc=$?
+check "constrained-trapezoid: H exact" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14} NR>2{d=(\$14-h)/h; if(d<0)d=-d; if(d>1e-12) bad=1} END{exit bad}" "$tmp/ct.csv"'
+"$sim" --case ht0 --scheme energy-decaying --chi 0.2 --chi-schedule sensor --dt 0.01 --t-end 2 >"$tmp/ed.csv"; rc=$?
+check "energy-decaying: H non-increasing, mu exact" '[ $rc -eq 0 ] && awk -F, "NR==2{m=\$15} NR>2{if(\$14 > prev*(1+1e-14)) bad=1; d=\$15-m; if(d<0)d=-d; if(d>1e-11) bad=1} NR>1{prev=\$14} END{exit bad}" "$tmp/ed.csv"'
+"$sim" --case ht1 --scheme lie-gen-alpha --rho-inf 0.5 --t-end 1 --every 100 >"$tmp/ga.csv"; rc=$?
+check "lie-gen-alpha: runs, R00(1) near the closed form (0.96475)" '[ $rc -eq 0 ] && awk -F, "END{d=\$2-0.96475241867653013; if(d<0)d=-d; exit !(d<1e-3)}" "$tmp/ga.csv"'
+"$sim" --case ht1 --scheme lie-gen-alpha --damping 1 --t-end 0.1 >"$tmp/gad.csv"; rc=$?
+check "lie-gen-alpha with effects" '[ $rc -eq 0 ]'
+
 # Backward integration.
 "$sim" --case ht1 --dt -0.001 --t-end -0.01 >"$tmp/back.csv"; rc=$?
 check "negative dt integrates backward" '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/back.csv" | cut -d, -f1)" = "-0.01" ]'

@@ -39,8 +39,9 @@ constexpr const char* kUsage =
     "  --alpha A                    simo-alpha only (default 0.5)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
     "                               4: triple jump, 6: Kahan-Li)\n"
-    "  --composition triple-jump|suzuki-5|kahan-li-9   a named composition (suzuki-5: order 4 in\n"
-    "                               5 sub-steps, far smaller error than the triple jump)\n"
+    "  --composition triple-jump|suzuki-5|kahan-li-9|mclachlan-15|kahan-li-17   a named composition\n"
+    "                               (suzuki-5: order 4 in 5 sub-steps, far smaller error than the\n"
+    "                               triple jump; mclachlan-15, kahan-li-17: order 8)\n"
     "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
     "  --mgl W                      M*g*l (0 = no gravity)\n"
     "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
@@ -186,12 +187,14 @@ Config parse(int argc, char** argv) {
       c.order_flag = c.order;
     } else if (flag == "--composition") {
       bool known = false;
-      for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9})
+      for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9,
+                           trompo::Composition::mclachlan15, trompo::Composition::kahan_li17})
         if (value == trompo::to_string(m)) {
           c.composition = m;
           known = true;
         }
-      if (!known) throw invalid_input("--composition: must be triple-jump, suzuki-5 or kahan-li-9, got " + value);
+      if (!known)
+        throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15 or kahan-li-17, got " + value);
     } else if (flag == "--damping") {
       c.damping = parse_number(flag, value);
       c.have_effects = true;

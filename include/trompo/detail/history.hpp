@@ -39,10 +39,10 @@ struct IncrementHistory {
   Scalar miss = std::numeric_limits<Scalar>::infinity();
   int count = 0;         ///< valid entries of `increment` (0: fresh)
   /// The largest `miss` at which the next step starts from the history. Above it (h too
-  /// large for the motion: the extrapolation's error grows like (hν)⁶) the memoryless
-  /// start is cheaper, and the only one measured to keep H as well as before: on HT2
-  /// (triple jump, h = 2e-3, misses 1e-6 … 1e-4) starting from the history anyway cost
-  /// 1.6× the evaluations and left max |ΔH/H| at 4.5e-13 instead of 1e-14.
+  /// large for the motion: the extrapolation's error grows like (hν)⁶) the step starts
+  /// memoryless, as before this memory existed. Conservative: with the 10⁴× chord rule of
+  /// newton.hpp, 1e-4 and 1e-2 were measured as safe too (HT2 triple jump, anisotropic
+  /// top) and slightly cheaper there; see docs/theory.md §13.2.
   static constexpr double trust = 1e-6;
 
   /// depth zero vectors (a fresh memory is all zeros: copies of it are well defined).

@@ -343,7 +343,7 @@ int run_scheme(const Config& c, Scheme scheme, const Scene& scene, const trompo:
   } else {
     if (c.order == 2) return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
     return run(trompo::ComposedStepper<Scheme, Scene>(scheme, scene,
-                                                      c.composition.value_or(trompo::composition_of_order(c.order))),
+                                                      c.composition ? *c.composition : trompo::composition_of_order(c.order)),
                c, s0, out);
   }
 }

@@ -253,3 +253,30 @@ TEST_CASE("history predictor: H and mu on an anisotropic top, along a trajectory
     check_run(GeradinBauchau{}, h);
   }
 }
+
+TEST_CASE("history predictor: a failed step leaves state and memory bit-identical", "[predictor][robustness]") {
+  // The history is filled by a normal stepper; a stepper allowed one correction per solve
+  // then fails the next step both from the history (two needed) and from the memoryless
+  // start, and must leave the trajectory exactly as it was.
+  const auto ht1 = cases::ht1<double>();
+  NewtonOptions<double> one;
+  one.max_iterations = 1;
+  const Stepper<SimoKappa, cases::Top<double>> normal(SimoKappa{}, ht1.scene), starved(SimoKappa{}, ht1.scene, one);
+  auto traj = normal.start(ht1.initial);
+  for (int i = 0; i < 10; ++i) REQUIRE(normal.step(traj, 1e-3).ok());
+  REQUIRE(traj.memory.trusted(1e-3));
+  const auto before = traj;
+  const StepReport<double> rep = starved.step(traj, 1e-3);
+  CHECK_FALSE(rep.ok());
+  CHECK(rep.status == StepStatus::not_converged);
+  const auto& m = traj.memory;
+  const auto& b = before.memory;
+  for (std::size_t i = 0; i < m.increment.size(); ++i)
+    CHECK(std::memcmp(m.increment[i].data(), b.increment[i].data(), sizeof(double) * 3) == 0);
+  CHECK(std::memcmp(m.tangent_inverse.data(), b.tangent_inverse.data(), sizeof(double) * 9) == 0);
+  CHECK(std::memcmp(&m.h, &b.h, sizeof(double)) == 0);
+  CHECK(std::memcmp(&m.miss, &b.miss, sizeof(double)) == 0);
+  CHECK(m.count == b.count);
+  CHECK(std::memcmp(traj.omega.data(), before.omega.data(), sizeof(double) * 3) == 0);
+  CHECK(traj.time == before.time);
+}

@@ -188,12 +188,20 @@ struct RunResult {
   std::string why;
 };
 
+/// What a run steps: the stepper's Trajectory (state and scheme memory, e.g. the history
+/// predictor's) if it has one, else the State.
+template <class StepperT>
+auto start_of(const StepperT& stepper, const State<double>& s) {
+  if constexpr (requires { stepper.start(s); }) return stepper.start(s);
+  else return s;
+}
+
 /// n steps of a trompo stepper (Stepper or ComposedStepper). Instrumented: also tracks
 /// the invariants after every step and counts Newton iterations.
 template <bool Instrumented, class StepperT, class SceneT>
 RunResult run_trompo(const StepperT& stepper, const cases::Case<SceneT>& c, double h, long n) {
   RunResult r;
-  State<double> s = c.initial;
+  auto s = start_of(stepper, c.initial);
   Invariants<SceneT> inv(c.scene, s);
   for (long i = 0; i < n; ++i) {
     const StepReport<double> rep = stepper.step(s, h);
@@ -208,7 +216,7 @@ RunResult run_trompo(const StepperT& stepper, const cases::Case<SceneT>& c, doub
     }
     ++r.steps;
   }
-  r.end = s;
+  r.end = static_cast<const State<double>&>(s);
   r.max_dH = inv.max_dH;
   r.max_dmu = inv.max_dmu;
   return r;
@@ -286,13 +294,16 @@ inline std::string label_of(const std::string& case_name, const std::string& met
   return os.str();
 }
 
-/// scheme, scheme-o4 (triple jump), scheme-o4s (Suzuki's five steps), scheme-o6 (Kahan–Li).
+/// scheme, scheme-o4 (triple jump), scheme-o4s (Suzuki's five steps), scheme-o6 (Kahan–Li),
+/// scheme-o8 (Kahan–Li, 17 steps), scheme-o8m (McLachlan, 15 steps).
 inline std::string method_name(const char* scheme, Composition method) {
   switch (method) {
     case Composition::base: return scheme;
     case Composition::triple_jump: return std::string(scheme) + "-o4";
     case Composition::suzuki5: return std::string(scheme) + "-o4s";
     case Composition::kahan_li9: return std::string(scheme) + "-o6";
+    case Composition::mclachlan15: return std::string(scheme) + "-o8m";
+    case Composition::kahan_li17: return std::string(scheme) + "-o8";
   }
   return scheme;
 }
@@ -399,15 +410,19 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
 template <class StepperT, class SceneT>
 void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<SceneT>& p) {
   const double h = p.h_step;
-  State<double> s = p.c.initial;
-  long newton = 0;
+  auto s = start_of(stepper, p.c.initial);
+  long newton = 0, evaluations = 0, tangents = 0;
   for (auto _ : st) {
     const StepReport<double> rep = stepper.step(s, h);
     newton += rep.iterations;
+    evaluations += rep.evaluations;
+    tangents += rep.tangents;
     benchmark::DoNotOptimize(s);
-    if (s.time > p.c.t_end) s = p.c.initial;  // stay on the case's trajectory
+    if (s.time > p.c.t_end) s = start_of(stepper, p.c.initial);  // stay on the case's trajectory
   }
   st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
+  st.counters["evals"] = benchmark::Counter(double(evaluations), benchmark::Counter::kAvgIterations);
+  st.counters["tangents"] = benchmark::Counter(double(tangents), benchmark::Counter::kAvgIterations);
   st.counters["h"] = h;
 }
 

@@ -404,6 +404,10 @@ def write_report(report_dir, context, sweep, steps, machine):
     L.append("")
     L.append("Full data: `sweep.csv`, `step.csv`, `frontier.csv`, `attitude_only.csv`, `bench.json`.\n")
     L += report_splitting.section(sweep, steps)  # splitting
+    # -- hook: the implicit schemes' targets and the t = 1000 frontiers (scripts/report_implicit.py)
+    import report_implicit  # noqa: E402  (next to this file)
+    L += report_implicit.section(sweep, steps)
+    # -- end hook
     with open(os.path.join(report_dir, "report.md"), "w") as f:
         f.write("\n".join(L))
 

@@ -102,6 +102,14 @@ void no_allocation_in_steps(const St& st, State<double> s, double h, int n = 50)
   INFO(ok << " steps ok, " << failed << " failed");
   CHECK(count == 0);
   CHECK(ok + failed == n);
+  // And along a trajectory, where a scheme with memory (the history predictor) uses it.
+  int traj_ok = 0;
+  auto traj = st.start(s);
+  const long traj_count = allocations_in([&] {
+    for (int i = 0; i < n; ++i) traj_ok += st.step(traj, h).ok() ? 1 : 0;
+  });
+  INFO(traj_ok << " trajectory steps ok");
+  CHECK(traj_count == 0);
 }
 
 template <class Scheme>

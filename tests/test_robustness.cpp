@@ -318,7 +318,9 @@ TEST_CASE("integrate lands exactly on t_end and matches plain stepping bit for b
     CHECK(b.time == 0.7);
   }
   SECTION("the steps are exactly h: same bits as a loop of step(s, h)") {
-    State<double> a = c.initial, b = c.initial;
+    // Trajectories on both sides: integrate() would step a plain State along a trajectory
+    // of its own (the scheme's history predictor), a loop of step(State&, h) memoryless.
+    auto a = st.start(c.initial), b = st.start(c.initial);
     const double h = 1.0 / 64;
     REQUIRE(integrate(st, a, 1.0, h).ok());
     for (int i = 0; i < 64; ++i) REQUIRE(st.step(b, h).ok());

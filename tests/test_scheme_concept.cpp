@@ -28,16 +28,21 @@ using Memory = scheme_memory_t<MidpointQ, Free>;
 static_assert(SchemeFor<MidpointQ, Free>);
 static_assert(SchemeFor<MidpointQ, Top>);
 static_assert(has_memory_v<MidpointQ, Free>);
-static_assert(!has_memory_v<SimoKappa, Free>);
-static_assert(std::is_same_v<scheme_memory_t<SimoKappa, Top>, NoMemory>);
+static_assert(!has_memory_v<SimoAlpha, Free>);
+static_assert(std::is_same_v<scheme_memory_t<SimoAlpha, Top>, NoMemory>);
+// The energy-exact schemes carry their history predictor's memory, which is only a hint:
+// a plain State may still be stepped (each step from fresh memory).
+static_assert(std::is_same_v<scheme_memory_t<SimoKappa, Top>, IncrementHistory<double>>);
+static_assert(has_memory_v<GeradinBauchau, Free> && has_memory_v<SimoCollocation, Top>);
+static_assert(memory_is_hint_v<SimoKappa, Top> && memory_is_hint_v<SimoAlpha, Top> && !memory_is_hint_v<MidpointQ, Free>);
 static_assert(SchemeFor<SimoAlpha, Top> && SchemeFor<SimoCollocation, Top> && SchemeFor<SimoKappa, Top> &&
               SchemeFor<GeradinBauchau, Top> && SchemeFor<GeradinBauchauPaper, Top> && SchemeFor<RK4, Top>);
 /// A type that is not a scheme (no traits, no step) is refused by the concept.
 struct NotAScheme {};
 static_assert(!SchemeFor<NotAScheme, Free>);
 /// A memoryless composed stepper carries no memory either: zero cost.
-static_assert(std::is_same_v<ComposedStepper<SimoKappa, Top>::Memory, NoMemory>);
-static_assert(std::is_same_v<Stepper<SimoKappa, Top>::TrajectoryType, Trajectory<double, NoMemory>>);
+static_assert(std::is_same_v<ComposedStepper<SimoAlpha, Top>::Memory, NoMemory>);
+static_assert(std::is_same_v<Stepper<SimoAlpha, Top>::TrajectoryType, Trajectory<double, NoMemory>>);
 
 bool same_memory(const Memory& a, const Memory& b) { return std::memcmp(&a, &b, sizeof(Memory)) == 0; }
 

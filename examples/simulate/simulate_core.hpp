@@ -47,8 +47,9 @@ constexpr const char* kUsage =
     "  --alpha A                    simo-alpha only (default 0.5)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
     "                               4: triple jump, 6: Kahan-Li)\n"
-    "  --composition triple-jump|suzuki-5|kahan-li-9   a named composition (suzuki-5: order 4 in\n"
-    "                               5 sub-steps, far smaller error than the triple jump)\n"
+    "  --composition triple-jump|suzuki-5|kahan-li-9|mclachlan-15|kahan-li-17   a named composition\n"
+    "                               (suzuki-5: order 4 in 5 sub-steps, far smaller error than the\n"
+    "                               triple jump; mclachlan-15, kahan-li-17: order 8)\n"
     "  splitting (explicit, spin-exact; docs/splitting.md):\n"
     "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9   with --scheme splitting\n"
     "                               (suzuki-5, kahan-li-9: compositions of Strang); default by --order:\n"
@@ -210,13 +211,14 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     } else if (flag == "--composition") {
       c.composition_name = value;
       bool known = value == "strang" || value == "chin-4a" || value == "chin-triple-jump";  // splitting only
-      for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9})
+      for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9,
+                           trompo::Composition::mclachlan15, trompo::Composition::kahan_li17})
         if (value == trompo::to_string(m)) {
           c.composition = m;
           known = true;
         }
       if (!known)
-        throw invalid_input("--composition: must be triple-jump, suzuki-5 or kahan-li-9 (with --scheme splitting: strang, "
+        throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15 or kahan-li-17 (with --scheme splitting: strang, "
                             "chin-4a, chin-triple-jump, suzuki-5 or kahan-li-9), got " + value);
     } else if (flag == "--damping") {
       c.damping = parse_number(flag, value);
@@ -267,9 +269,10 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   // ---- splitting: its compositions are its own methods ----
   if (c.scheme == "splitting") {
     if (c.composition_name) {
-      if (*c.composition_name == "triple-jump")
-        throw invalid_input("--composition triple-jump: not a splitting method (strang, chin-4a, chin-triple-jump, "
-                            "suzuki-5, kahan-li-9)");
+      for (const char* implicit_only : {"triple-jump", "mclachlan-15", "kahan-li-17"})
+        if (*c.composition_name == implicit_only)
+          throw invalid_input("--composition " + *c.composition_name +
+                              ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9)");
       const int k = *c.composition_name == "strang" ? 2 : *c.composition_name == "chin-4a" || *c.composition_name == "suzuki-5" ? 4 : 6;
       if (c.order_flag && *c.order_flag != k)
         throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
@@ -486,7 +489,7 @@ int run_scheme(const Config& c, Scheme scheme, const Scene& scene, const trompo:
   } else {
     if (c.order == 2) return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
     return run(trompo::ComposedStepper<Scheme, Scene>(scheme, scene,
-                                                      c.composition.value_or(trompo::composition_of_order(c.order))),
+                                                      c.composition ? *c.composition : trompo::composition_of_order(c.order)),
                c, s0, out);
   }
 }

@@ -1,6 +1,6 @@
 #pragma once
-// ComposedStepper<Scheme, Scene>: order 4 or 6 from a symmetric second-order scheme by
-// symmetric composition (docs/theory.md §6).
+// ComposedStepper<Scheme, Scene>: order 4, 6 or 8 from a symmetric second-order scheme by
+// symmetric composition (docs/theory.md §6, §13 [P4]).
 //
 //   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, scene, 4);
 //   StepReport<double> rep = stepper.step(state, h);   // three sub-steps γ_i h
@@ -8,7 +8,7 @@
 // One composed step of size h is the product of base steps of sizes γ_1 h, …, γ_s h with
 // Σγ_i = 1 and γ_i = γ_{s+1−i}. If the base step Φ_h is symmetric (Φ_{−h} = Φ_h⁻¹) and of
 // order 2, the composition is symmetric and of order 4 (triple jump, s = 3, or Suzuki's
-// s = 5) or 6 (Kahan–Li, s = 9):
+// s = 5), 6 (Kahan–Li, s = 9) or 8 (McLachlan, s = 15; Kahan–Li, s = 17):
 //
 //   ComposedStepper<SimoKappa, HeavyTop<double>> s5(SimoKappa{}, scene, Composition::suzuki5);
 //
@@ -22,7 +22,7 @@
 // composition conserves too. Negative γ_i are steps backward in time, which the base
 // schemes support.
 //
-// Only symmetric bases may be composed to order 4/6: a scheme type whose trait says it is
+// Only symmetric bases may be composed to order 4/6/8: a scheme type whose trait says it is
 // not symmetric (RK4) is rejected at compile time, a scheme whose parameters make it
 // non-symmetric (Simo-α with α ≠ ½: order 1) at construction. Order 2 is the base scheme
 // itself, one step, whatever the scheme.
@@ -55,7 +55,9 @@ enum class Composition {
   base,         ///< order 2: one step of the base scheme
   triple_jump,  ///< order 4, 3 steps
   suzuki5,      ///< order 4, 5 steps (Suzuki 1990)
-  kahan_li9     ///< order 6, 9 steps (Kahan & Li 1997)
+  kahan_li9,    ///< order 6, 9 steps (Kahan & Li 1997)
+  mclachlan15,  ///< order 8, 15 steps (McLachlan 1995)
+  kahan_li17    ///< order 8, 17 steps (Kahan & Li 1997)
 };
 
 /// The name of a composition, as the CLI spells it ("triple-jump", "suzuki-5", …).
@@ -65,12 +67,15 @@ inline const char* to_string(Composition c) {
     case Composition::triple_jump: return "triple-jump";
     case Composition::suzuki5: return "suzuki-5";
     case Composition::kahan_li9: return "kahan-li-9";
+    case Composition::mclachlan15: return "mclachlan-15";
+    case Composition::kahan_li17: return "kahan-li-17";
   }
   return "unknown";
 }
 
 /// The default composition of each order: 2 → base, 4 → triple jump, 6 → Kahan–Li.
-/// Throws invalid_input for any other order.
+/// Throws invalid_input for any other order (the order-8 sets are chosen by name:
+/// Composition::kahan_li17, Composition::mclachlan15).
 inline Composition composition_of_order(int order) {
   switch (order) {
     case 2: return Composition::base;
@@ -80,14 +85,14 @@ inline Composition composition_of_order(int order) {
   }
 }
 
-/// The weights γ_1 … γ_s of a symmetric composition of order 2, 4 or 6.
+/// The weights γ_1 … γ_s of a symmetric composition of order 2, 4, 6 or 8.
 template <class Scalar>
 struct CompositionCoefficients {
-  /// The largest number of sub-steps of the compositions on offer (Kahan–Li's 9).
-  static constexpr int max_stages = 9;
+  /// The largest number of sub-steps of the compositions on offer (Kahan–Li's 17).
+  static constexpr int max_stages = 17;
   /// Which composition.
   Composition method = Composition::base;
-  /// Its order: 2, 4 or 6.
+  /// Its order: 2, 4, 6 or 8.
   int order = 2;
   /// The number of sub-steps s.
   int stages = 1;
@@ -142,6 +147,33 @@ struct CompositionCoefficients {
         c.gamma[3] = c.gamma[5] = Scalar(0.08221359629355080023149045L);
         c.gamma[4] = Scalar(0.79854399093482996339895035L);
         break;
+      case Composition::mclachlan15: {
+        // McLachlan, "On the numerical integration of ordinary differential equations by
+        // symmetric composition methods", SIAM J. Sci. Comput. 16 (1995) 151–168: the
+        // s = 15 order-8 set, as printed in Hairer–Lubich–Wanner, §V.3.2 ([P4]). Checked
+        // in tests/test_composition.cpp: Σγ = 1, Σγ³ = Σγ⁵ = Σγ⁷ = 0, observed order 8.
+        c.order = 8;
+        c.stages = 15;
+        const Scalar g[8] = {Scalar(0.74167036435061295344822780L), Scalar(-0.40910082580003159399730010L),
+                             Scalar(0.19075471029623837995387626L), Scalar(-0.57386247111608226665638773L),
+                             Scalar(0.29906418130365592384446354L), Scalar(0.33462491824529818378495798L),
+                             Scalar(0.31529309239676659663205666L), Scalar(-0.79688793935291635401978884L)};
+        for (int i = 0; i < 8; ++i) c.gamma[std::size_t(i)] = c.gamma[std::size_t(14 - i)] = g[i];
+        break;
+      }
+      case Composition::kahan_li17: {
+        // Kahan & Li (1997), as above: the s = 17 order-8 set (Hairer–Lubich–Wanner,
+        // §V.3.2), whose error constant is smaller than McLachlan's s = 15 ([P4]).
+        c.order = 8;
+        c.stages = 17;
+        const Scalar g[9] = {Scalar(0.13020248308889008087881763L), Scalar(0.56116298177510838456196441L),
+                             Scalar(-0.38947496264484728640807860L), Scalar(0.15884190655515560089621075L),
+                             Scalar(-0.39590389413323757733623154L), Scalar(0.18453964097831570709183254L),
+                             Scalar(0.25837438768632204729397911L), Scalar(0.29501172360931029887096624L),
+                             Scalar(-0.60550853383003451169892108L)};
+        for (int i = 0; i < 9; ++i) c.gamma[std::size_t(i)] = c.gamma[std::size_t(16 - i)] = g[i];
+        break;
+      }
       default:
         detail::fail("composition: unknown method ", static_cast<int>(method));
     }
@@ -190,7 +222,8 @@ class ComposedStepper {
   ComposedStepper(Scheme scheme, Scene scene, int order, NewtonOptions<Scalar> options = {})
       : ComposedStepper(std::move(scheme), std::move(scene), composition_of_order(order), options) {}
 
-  /// A named composition (Composition::suzuki5 for Suzuki's order-4 set).
+  /// A named composition (Composition::suzuki5 for Suzuki's order-4 set,
+  /// Composition::kahan_li17 or mclachlan15 for order 8).
   ComposedStepper(Scheme scheme, Scene scene, Composition method, NewtonOptions<Scalar> options = {})
       : base_(std::move(scheme), std::move(scene), options),
         coefficients_(CompositionCoefficients<Scalar>::of(method)) {
@@ -206,9 +239,10 @@ class ComposedStepper {
   /// Advances a trajectory by h; state and memory are committed on success only.
   StepReport<Scalar> step(TrajectoryType& traj, Scalar h) const { return step(traj.state(), traj.memory, h); }
 
-  /// Advances `state` by h (memoryless base schemes).
+  /// Advances `state` by h (memoryless base schemes, or memory that is only a hint:
+  /// each such step starts from fresh memory).
   StepReport<Scalar> step(State<Scalar>& state, Scalar h) const {
-    static_assert(std::is_same_v<BaseMemory, NoMemory>,
+    static_assert(memory_is_hint_v<Scheme, Scene>,
                   "ComposedStepper::step(State&, h): the base scheme carries memory between steps; step a "
                   "Trajectory instead (auto traj = stepper.start(state); stepper.step(traj, h))");
     Memory memory{};
@@ -227,11 +261,15 @@ class ComposedStepper {
       return total;
     }
     State<Scalar> s = state;
+    // The sub-steps work on a copy, committed on success only (of the used entries: a
+    // composed memory holds max_stages base memories).
     Memory m = memory;
     for (int i = 0; i < coefficients_.stages; ++i) {
       const StepReport<Scalar> rep =
           base_.step(s, base_memory(m, i), coefficients_.gamma[static_cast<std::size_t>(i)] * h);
       total.iterations += rep.iterations;
+      total.evaluations += rep.evaluations;
+      total.tangents += rep.tangents;
       if (rep.residual > total.residual) total.residual = rep.residual;
       if (!rep.ok()) {
         total.status = rep.status;
@@ -241,15 +279,15 @@ class ComposedStepper {
     // Σγ_i h differs from h by round-off; end the step exactly at t_n + h, as Stepper does.
     s.time = state.time + h;
     state = s;
-    memory = m;
+    copy_used(m, memory);
     return total;
   }
 
-  /// The order of the composition: 2, 4 or 6.
+  /// The order of the composition: 2, 4, 6 or 8.
   int order() const { return coefficients_.order; }
   /// Which composition.
   Composition method() const { return coefficients_.method; }
-  /// Base steps per composed step (1, 3, 5 or 9): the cost factor over the base scheme.
+  /// Base steps per composed step (1, 3, 5, 9, 15 or 17): the cost factor over the base scheme.
   int stages() const { return coefficients_.stages; }
   /// The weights γ_i.
   const CompositionCoefficients<Scalar>& coefficients() const { return coefficients_; }
@@ -271,6 +309,15 @@ class ComposedStepper {
   NewtonOptions<Scalar>& options() { return base_.options(); }
 
  private:
+  /// to[i] = from[i] for the sub-steps of this composition.
+  void copy_used(const Memory& from, Memory& to) const {
+    if constexpr (std::is_same_v<Memory, NoMemory>) {
+      to = from;
+    } else {
+      for (int i = 0; i < coefficients_.stages; ++i) to[std::size_t(i)] = from[std::size_t(i)];
+    }
+  }
+
   /// Sub-step i's memory.
   static BaseMemory& base_memory(Memory& m, int i) {
     if constexpr (std::is_same_v<Memory, NoMemory>) {

@@ -44,6 +44,8 @@ struct StepReport {
   /// ok, or why the step failed.
   StepStatus status = StepStatus::ok;
   int iterations = 0;           ///< Newton iterations (linear solves); 0 for explicit schemes
+  int evaluations = 0;          ///< residual evaluations, tangent or not (0 for explicit schemes)
+  int tangents = 0;             ///< of which with the tangent (the dearer half of an evaluation)
   Scalar residual = Scalar(0);  ///< final ‖R‖ / scale
   /// True when the step succeeded.
   bool ok() const { return status == StepStatus::ok; }
@@ -138,9 +140,20 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// opt.reuse_tangent·x_scale) separate from it, which is what the fold
 /// rule needs (the sign of det K, which changes only across a fold, where K is
 /// singular and the iteration fails).
+///
+/// Carried tangent ([P3]). With `carried` non-null and `use_carried`, *carried holds the
+/// inverse of a tangent from a nearby solve (the previous step of the same size, kept in
+/// the scheme's memory): evaluation 0 is then residual-only and the first correction a
+/// chord step with it. Everything else is as above, except that a chord step with the
+/// carried tangent must contract the residual by 10⁴× (not 10×), else a fresh tangent is
+/// evaluated there; acceptance is by the same rules. On
+/// success *carried (when given) receives the inverse of the tangent used last, for the
+/// next solve and for the fold rule (det K⁻¹ has the sign of det K); `tangent` receives
+/// the last evaluated K only if one was evaluated.
 template <class Scalar, class Eval>
 StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const NewtonOptions<Scalar>& opt,
-                          Scalar x_scale, Eigen::Matrix<Scalar, 3, 3>* tangent = nullptr) {
+                          Scalar x_scale, Eigen::Matrix<Scalar, 3, 3>* tangent = nullptr,
+                          Eigen::Matrix<Scalar, 3, 3>* carried = nullptr, bool use_carried = false) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
@@ -151,6 +164,9 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
   Vector3 R;
   Matrix3 K = Matrix3::Zero();      // tangent of the last full evaluation
   Matrix3 K_inv = Matrix3::Zero();  // and its inverse
+  const bool start_carried = carried && use_carried && reuse;
+  if (start_carried) K_inv = *carried;
+  bool evaluated_tangent = false;   // whether K holds a tangent evaluated in this solve
   Scalar scale(1);
   Scalar last_step = std::numeric_limits<Scalar>::infinity();
   Scalar r_prev = std::numeric_limits<Scalar>::infinity();
@@ -164,6 +180,9 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
       return false;
     }
     r = R.norm();
+    ++rep.evaluations;
+    if (with_tangent) ++rep.tangents;
+    evaluated_tangent = evaluated_tangent || with_tangent;
     if (!std::isfinite(static_cast<double>(r)) ||
         (with_tangent && !std::isfinite(static_cast<double>(K.sum())))) {
       rep.status = StepStatus::non_finite;
@@ -171,9 +190,14 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
     }
     return true;
   };
+  // On success: the tangent and the inverse used last, for the caller.
+  const auto finish = [&]() {
+    if (tangent && evaluated_tangent) *tangent = K;
+    if (carried) *carried = K_inv;
+  };
   for (int k = 0;; ++k) {
     // Evaluation k; the correction it leads to is a chord step unless `fresh`.
-    bool fresh = !reuse || k == 0 || !(last_step <= opt.reuse_tangent * size);
+    bool fresh = !reuse || (k == 0 && !start_carried) || (k > 0 && !(last_step <= opt.reuse_tangent * size));
     if (!evaluate(fresh)) return rep;
     rep.residual = r / (scale + tiny);
     const bool small_residual = r <= opt.residual_tolerance * scale;
@@ -184,21 +208,26 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
     // only the contraction estimate below accepts it.
     const bool small_step = k == 0 ? r == Scalar(0) : last_fresh && last_step <= opt.step_tolerance * size;
     if (small_residual && small_step) {
-      if (tangent) *tangent = K;
+      finish();
       return rep;
     }
     // Stalled at round-off: the correction no longer moves x, and the residual is as
     // small as the conditioning of K allows (√ε·scale at worst). Nothing more to gain.
     const bool stalled = k > 0 && last_step <= Scalar(8) * eps * size;
     if (stalled && r <= std::sqrt(eps) * scale) {
-      if (tangent) *tangent = K;
+      finish();
       return rep;
     }
     if (rep.iterations >= opt.max_iterations) {
       rep.status = StepStatus::not_converged;
       return rep;
     }
-    if (!fresh && !last_fresh && !(r <= r_prev / Scalar(10))) {
+    // A carried tangent (from an earlier solve) must contract by 10⁴× per chord step, a
+    // tangent of this solve by 10×: the carried one ages from step to step, and a chord
+    // rate near 1/10 would let the `stalled` rule accept a remainder ~ε·x_scale of one
+    // sign, which drifts H (measured on the anisotropic top of tests/test_predictor.cpp).
+    const Scalar chord_contraction = evaluated_tangent ? Scalar(10) : Scalar(10000);
+    if (!fresh && !last_fresh && !(r <= r_prev / chord_contraction)) {
       // A chord step contracted too little: Newton again from here (same x, same R).
       fresh = true;
       if (!evaluate(true)) return rep;
@@ -221,7 +250,7 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
       const bool estimated = fresh == last_fresh && rho <= Scalar(0.01) && rho * step <= eps * size / Scalar(1024);
       const bool at_roundoff = !fresh && last_fresh && rho <= Scalar(1e-6) && step <= Scalar(8) * eps * size;
       if (estimated || at_roundoff) {
-        if (tangent) *tangent = K;
+        finish();
         return rep;
       }
     }

@@ -88,6 +88,16 @@ using scheme_memory_t = typename detail::memory_of<S, Scene>::type;
 template <class S, class Scene>
 inline constexpr bool has_memory_v = !std::is_same_v<scheme_memory_t<S, Scene>, NoMemory>;
 
+/// Whether S's memory is only a hint (a history predictor): a step from fresh memory is a
+/// correct step, so a plain State may be stepped, each step from fresh memory. A scheme
+/// says so with `static constexpr bool memory_is_hint = true`; memoryless schemes count.
+template <class S, class Scene>
+inline constexpr bool memory_is_hint_v = [] {
+  if constexpr (!has_memory_v<S, Scene>) return true;
+  else if constexpr (requires { S::memory_is_hint; }) return static_cast<bool>(S::memory_is_hint);
+  else return false;
+}();
+
 /// S models a scheme that can step Scene (see the file comment).
 template <class S, class Scene>
 concept SchemeFor =

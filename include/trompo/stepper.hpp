@@ -48,19 +48,34 @@ class Stepper {
   /// Advances a trajectory by h. On failure state and memory are untouched and the
   /// report says why.
   StepReport<Scalar> step(TrajectoryType& traj, Scalar h) const {
-    Memory memory = traj.memory;
-    const StepReport<Scalar> rep = step(traj.state(), memory, h);
-    if (rep.ok()) traj.memory = memory;
-    return rep;
+    // step(state, memory, h) commits both on success only: no copy needed here.
+    return step(traj.state(), traj.memory, h);
   }
 
-  /// Advances `state` by h (memoryless schemes). On failure `state` is untouched.
+  /// Advances `state` by h (memoryless schemes, or memory that is only a hint, e.g. a
+  /// history predictor: each such step starts from fresh memory). On failure `state` is
+  /// untouched.
   StepReport<Scalar> step(State<Scalar>& state, Scalar h) const {
-    static_assert(!has_memory_v<Scheme, Scene>,
+    static_assert(memory_is_hint_v<Scheme, Scene>,
                   "Stepper::step(State&, h): this scheme carries memory between steps; step a "
                   "Trajectory instead (auto traj = stepper.start(state); stepper.step(traj, h))");
-    Memory memory{};
-    return step(state, memory, h);
+    if constexpr (!has_memory_v<Scheme, Scene>) {
+      Memory memory{};
+      return step(state, memory, h);
+    } else {
+      // Fresh memory, discarded afterwards: no need to keep a copy for a failed step.
+      StepReport<Scalar> rep;
+      if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
+        rep.status = StepStatus::invalid_step;
+        return rep;
+      }
+      State<Scalar> next;
+      Memory scratch{};
+      rep = scheme_.step(scene_, static_cast<const State<Scalar>&>(state), h, options_, next, scratch);
+      if (rep.ok() && !committable(next)) rep.status = StepStatus::non_finite;
+      if (rep.ok()) state = next;
+      return rep;
+    }
   }
 
   /// The step on an explicit (state, memory) pair: both are committed on success only.

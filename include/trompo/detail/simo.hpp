@@ -23,6 +23,7 @@
 
 #include "trompo/errors.hpp"
 #include "trompo/newton.hpp"
+#include "trompo/detail/history.hpp"
 #include "trompo/detail/step_data.hpp"
 #include "trompo/so3.hpp"
 #include "trompo/state.hpp"
@@ -421,20 +422,22 @@ class SimoResidual {
 };
 
 /// One step of a Simo scheme: Newton on [T1] from the predictor, then (9)–(10).
+/// With `history` (the scheme's memory, null for none) the predictor is the
+/// extrapolation of the last increments and the first tangent the carried one, when the
+/// history allows (IncrementHistory, [P1]–[P3]); if that solve fails, the step is solved
+/// once more from the memoryless start before it reports failure. On success the
+/// accepted Θ is recorded.
 template <SimoVariant V, class Scene>
 StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
                                              const State<typename Scene::Scalar>& in,
                                              typename Scene::Scalar h,
                                              const NewtonOptions<typename Scene::Scalar>& opt,
-                                             State<typename Scene::Scalar>& out) {
+                                             State<typename Scene::Scalar>& out,
+                                             IncrementHistory<typename Scene::Scalar>* history = nullptr) {
   using Scalar = typename Scene::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   const StepData<Scene> d(scene, in, h);
-  const Vector3 Theta0 = d.predicted_increment();
-  // Newton's unknown is y = Θ − hΩ_n (see SimoResidual).
-  const Vector3 base = h * in.omega;
-  Vector3 y = Theta0 - base;
-  Eigen::Matrix<Scalar, 3, 3> K;
   using Residual = SimoResidual<V, Scene>;
   // The numerically projected α or κ of a general potential is resolved only to a
   // tolerance, so R is smooth only down to that level and the contraction estimates of
@@ -442,22 +445,53 @@ StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
   // them): plain Newton for those.
   NewtonOptions<Scalar> options = opt;
   if constexpr (Residual::general_projection) options.reuse_tangent = Scalar(0);
-  StepReport<Scalar> rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K);
-  if (!rep.ok()) return rep;
-  const Vector3 Theta = base + y;
+  // Newton's unknown is y = Θ − hΩ_n (see SimoResidual).
+  const Vector3 base = h * in.omega;
+  // [P2]: from the history only when it predicted the last step well (trusted).
+  const bool from_history = history && history->trusted(h) && options.reuse_tangent > Scalar(0);
+  Vector3 Theta0;
+  Vector3 y;
+  Matrix3 K, K_inv;
+  StepReport<Scalar> rep;
   // Branch rule (NewtonOptions): |Θ| < max_increment, ‖Θ − Θ⁰‖ ≤ max_correction, and the
   // fold rule det(K J⁻¹)·h > 0 (K → (2/h)J as h → 0 on the continued branch); J is
-  // positive definite, so the sign is that of det(K)·h.
-  if (!(Theta.norm() < opt.max_increment) || !((Theta - Theta0).norm() <= opt.max_correction) ||
-      !(K.determinant() * h > Scalar(0))) {
-    rep.status = StepStatus::wrong_branch;
-    return rep;
+  // positive definite, so the sign is that of det(K)·h (of det(K⁻¹)·h for the tangent
+  // a history solve corrected with last, which may be the carried one).
+  const auto on_branch = [&](bool carried_tangent) {
+    const Vector3 Theta = base + y;
+    const Scalar fold = carried_tangent ? K_inv.determinant() : K.determinant();
+    if (!(Theta.norm() < opt.max_increment) || !((Theta - Theta0).norm() <= opt.max_correction) ||
+        !(fold * h > Scalar(0)))
+      rep.status = StepStatus::wrong_branch;
+    return rep.ok();
+  };
+  bool solved = false;
+  if (from_history) {
+    // [P1] the extrapolated increment, [P3] the carried tangent.
+    Theta0 = history->extrapolate();
+    y = Theta0 - base;
+    K_inv = history->tangent_inverse;
+    rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K, &K_inv, true);
+    solved = rep.ok() && on_branch(true);
   }
+  if (!solved) {
+    // The memoryless step (and the fallback [P2] when the history's solve failed).
+    const StepReport<Scalar> spent = rep;  // the history solve's work, if any
+    Theta0 = d.predicted_increment();
+    y = Theta0 - base;
+    rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K, &K_inv);
+    rep.iterations += spent.iterations;
+    rep.evaluations += spent.evaluations;
+    rep.tangents += spent.tangents;
+    if (!rep.ok() || !on_branch(false)) return rep;
+  }
+  const Vector3 Theta = base + y;
   out.rotation = in.rotation * SO3<Scalar>::exp(Theta);   // Λ_{n+1} = Λ_n exp(Θ̂)
   out.omega = in.omega + Scalar(2) * y / h;                // Ω_{n+1} = 2Θ/h − Ω_n  (9)
   out.time = in.time + h;
   if (!all_finite(out.omega) || !all_finite(out.rotation.unit_quaternion().coeffs()))
     rep.status = StepStatus::non_finite;
+  if (rep.ok() && history) history->record(Theta, h, K_inv);
   return rep;
 }
 

@@ -22,13 +22,24 @@ struct GeradinBauchau {
   static constexpr Keeps keeps{
       .energy = Scene::potentials_linear, .momentum_map = true, .spatial_momentum = Scene::is_free};
 
+  /// Whether the steps of a Trajectory start from the history predictor and the carried
+  /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]), extrapolating e. Off:
+  /// every step is solved as a memoryless one. Either way the acceptance is the same.
+  bool history_predictor = true;
+  /// The last increments e and tangent (IncrementHistory), per trajectory.
+  template <class Scene>
+  using Memory = IncrementHistory<typename Scene::Scalar>;
+  /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
+  static constexpr bool memory_is_hint = true;
+
   /// One step: Newton on [T4] from the predictor, then Λ_{n+1} = Λ_n ⊗ (e0, e).
   template <class Scene>
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h,
                                           const NewtonOptions<typename Scene::Scalar>& options,
-                                          State<typename Scene::Scalar>& out, NoMemory&) const {
-    return detail::gb_step<detail::GBForm::momentum_consistent>(scene, in, h, options, out);
+                                          State<typename Scene::Scalar>& out, Memory<Scene>& memory) const {
+    return detail::gb_step<detail::GBForm::momentum_consistent>(scene, in, h, options, out,
+                                                                history_predictor ? &memory : nullptr);
   }
 
   /// The residual [T4] and its tangent (for tests and tools).

@@ -20,13 +20,24 @@ struct SimoKappa {
   template <class Scene>
   static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
 
+  /// Whether the steps of a Trajectory start from the history predictor and the carried
+  /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved
+  /// as a memoryless one. Either way the step's acceptance, hence its exactness, is the same.
+  bool history_predictor = true;
+  /// The last increments and tangent (IncrementHistory), per trajectory.
+  template <class Scene>
+  using Memory = IncrementHistory<typename Scene::Scalar>;
+  /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
+  static constexpr bool memory_is_hint = true;
+
   /// One step: Newton on [T1] with κ from (19), then (9)–(10).
   template <class Scene>
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h,
                                           const NewtonOptions<typename Scene::Scalar>& options,
-                                          State<typename Scene::Scalar>& out, NoMemory&) const {
-    return detail::simo_step<detail::SimoVariant::kappa>(0.5, scene, in, h, options, out);
+                                          State<typename Scene::Scalar>& out, Memory<Scene>& memory) const {
+    return detail::simo_step<detail::SimoVariant::kappa>(0.5, scene, in, h, options, out,
+                                                          history_predictor ? &memory : nullptr);
   }
 
   /// The residual [T1] and tangent [T3] of a step (for tests and tools).

@@ -1,0 +1,163 @@
+"""The implicit energy-momentum schemes' targets (docs/predictor.md) for scripts/report.py.
+
+section(sweep, steps) returns the report's markdown lines:
+  - the target table: the Simo-kappa step vs odeint's runge_kutta4 step (HT1, h = 1e-3), a
+    composed sub-step vs a base step, attitude alone at 1e-10 (t = 10), and the joint bound
+    at t = 1000 (HT0, HT1) against dopri5 and RK4;
+  - the joint and attitude-only frontiers at t = 1000 (cases "ht0-t1000", "ht1-t1000": the
+    implicit rows from bench/methods/implicit_long.cpp, the explicit ones from the
+    splitting family's bench/methods/splitting.cpp).
+It reads the rows report.py's load() makes and changes nothing else.
+"""
+
+EXACT_SCHEMES = ("simo-kappa", "simo-collocation", "geradin-bauchau")
+STEP_VS_ODEINT = 1.3      # Simo-kappa step / odeint rk4 step, HT1, h = 1e-3
+SUBSTEP_VS_BASE = 1.05    # composed sub-step / base step
+ATTITUDE = 1e-10          # ||dLambda|| at t = 10
+ATTITUDE_TARGET = {"ht0": 1.0, "ht1": 1.5, "ht2": 1.5}  # implicit / dopri5
+JOINT_ROT, JOINT_DH = 1e-6, 1e-12
+JOINT_FRACTION = 1.0 / 3.0
+LONG_CASES = ("ht0-t1000", "ht1-t1000")
+LONG_ATTITUDE = (1e-4, 1e-6, 1e-8)
+
+
+def _fmt(x, digits=3):
+    if x is None:
+        return "—"
+    if x == 0:
+        return "0"
+    return f"{x:.{digits - 1}e}" if (abs(x) < 1e-2 or abs(x) >= 1e4) else f"{x:.{digits}g}"
+
+
+def _ok(sweep, case):
+    return [r for r in sweep if r["case"] == case and not r["error"]]
+
+
+def _cheapest(rows, pred):
+    good = [r for r in rows if pred(r)]
+    return min(good, key=lambda r: r["cpu_ms"]) if good else None
+
+
+def _exact(r):
+    return r["scheme"] in EXACT_SCHEMES
+
+
+def _dopri(r):
+    return r["method"] == "odeint-dopri5"
+
+
+def _rk4(r):
+    return r["method"] in ("rk4", "odeint-rk4")
+
+
+def _joint(r):
+    return r["err_rot"] <= JOINT_ROT and r["max_dH"] <= JOINT_DH
+
+
+def _config(r):
+    if r is None:
+        return "not reached"
+    if r["method"] == "odeint-dopri5":
+        return f"odeint dopri5, tol {r['tol']:.1e}: {_fmt(r['cpu_ms'])} ms"
+    return f"{r['method']}, h = {r['h']:.3g}: {_fmt(r['cpu_ms'])} ms"
+
+
+def _status(ok):
+    return "met" if ok else "**missed**"
+
+
+def _targets(sweep, steps):
+    L = ["| target | configuration and measurement | status |", "|---|---|---|"]
+    k, o = steps.get(("ht1", "simo-kappa")), steps.get(("ht1", "odeint-rk4"))
+    if k and o:
+        ratio = k["ns"] / o["ns"]
+        lo, hi = k["ns_min"] / o["ns_max"], k["ns_max"] / o["ns_min"]
+        L.append(f"| Simo-κ step, HT1, h = 1e-3 ≤ {STEP_VS_ODEINT:g}× odeint runge_kutta4 | "
+                 f"{k['ns']:.0f} ns vs {o['ns']:.0f} ns: **{ratio:.2f}×** (repetitions {lo:.2f}–{hi:.2f}×), "
+                 f"{k['newton_mean']:.2f} corrections/step | {_status(ratio <= STEP_VS_ODEINT)} |")
+    else:
+        L.append("| Simo-κ step vs odeint runge_kutta4 | not in this run | — |")
+    for scheme in ("simo-kappa", "geradin-bauchau"):
+        base = steps.get(("ht1", scheme))
+        for v in ("o4s", "o6"):
+            comp = steps.get(("ht1", f"{scheme}-{v}"))
+            if base and comp:
+                per = comp["ns"] / comp["substeps"]
+                ratio = per / base["ns"]
+                L.append(f"| composed sub-step ≤ {SUBSTEP_VS_BASE:g}× base step ({scheme}-{v}, HT1, h = 1e-3) | "
+                         f"{per:.0f} ns vs {base['ns']:.0f} ns: **{ratio:.2f}×** | {_status(ratio <= SUBSTEP_VS_BASE)} |")
+    for case in ("ht0", "ht1", "ht2"):
+        rows = _ok(sweep, case)
+        imp = _cheapest(rows, lambda r: _exact(r) and r["err_rot"] <= ATTITUDE)
+        dop = _cheapest(rows, lambda r: _dopri(r) and r["err_rot"] <= ATTITUDE)
+        target = ATTITUDE_TARGET[case]
+        if imp and dop:
+            ratio = imp["cpu_ms"] / dop["cpu_ms"]
+            L.append(f"| attitude ‖ΔΛ‖ ≤ {ATTITUDE:g}, {case.upper()}, t = 10: implicit ≤ {target:g}× dopri5 | "
+                     f"{_config(imp)} vs {_config(dop)}: **{ratio:.2f}×** | {_status(ratio <= target)} |")
+        else:
+            L.append(f"| attitude ‖ΔΛ‖ ≤ {ATTITUDE:g}, {case.upper()}, t = 10 | implicit: {_config(imp)}; "
+                     f"dopri5: {_config(dop)} | — |")
+    for case in LONG_CASES:
+        rows = _ok(sweep, case)
+        if not rows:
+            L.append(f"| joint bound, {case.upper()} | not in this run | — |")
+            continue
+        imp = _cheapest(rows, lambda r: _exact(r) and _joint(r))
+        dop = _cheapest(rows, lambda r: _dopri(r) and _joint(r))
+        rk = _cheapest(rows, lambda r: _rk4(r) and _joint(r))
+        have_explicit = any(_dopri(r) or _rk4(r) for r in rows)
+        explicit = [r for r in (dop, rk) if r]
+        if imp and explicit:
+            best = min(explicit, key=lambda r: r["cpu_ms"])
+            ratio = imp["cpu_ms"] / best["cpu_ms"]
+            ok = ratio <= JOINT_FRACTION
+            meas = f"{_config(imp)} vs {_config(best)}: **{ratio:.2f}×**"
+        elif imp and have_explicit:
+            ok, meas = True, f"{_config(imp)}; dopri5 and RK4 do not reach it"
+        else:
+            ok, meas = False, f"implicit: {_config(imp)}" + ("" if have_explicit else "; no explicit rows in this run")
+        L.append(f"| joint ‖ΔΛ‖ ≤ {JOINT_ROT:g}, max ΔH/H ≤ {JOINT_DH:g}, {case.upper()}: implicit ≤ ⅓ of the "
+                 f"cheapest dopri5/RK4 | {meas} | {_status(ok) if (imp or have_explicit) else '—'} |")
+    return L
+
+
+def _long_frontiers(sweep):
+    L = []
+    for case in LONG_CASES:
+        rows = _ok(sweep, case)
+        if not rows:
+            continue
+        L.append(f"### {case.upper()} (t = 1000)\n")
+        L.append("| bound | implicit energy-momentum | dopri5 | RK4 |")
+        L.append("|---|---|---|---|")
+        fams = ((_exact, "implicit"), (_dopri, "dopri5"), (_rk4, "rk4"))
+        cells = [_config(_cheapest(rows, lambda r, p=p: p(r) and _joint(r))) for p, _ in fams]
+        L.append(f"| joint: ‖ΔΛ‖ ≤ {JOINT_ROT:g} and max ΔH/H ≤ {JOINT_DH:g} | " + " | ".join(cells) + " |")
+        for level in LONG_ATTITUDE:
+            cells = [_config(_cheapest(rows, lambda r, p=p: p(r) and r["err_rot"] <= level)) for p, _ in fams]
+            L.append(f"| attitude only: ‖ΔΛ‖ ≤ {level:g} | " + " | ".join(cells) + " |")
+        L.append("")
+        L.append("| method | h range | CPU ms | ‖ΔΛ‖ at t = 1000 | max ΔH/H | max Δμ/μ |")
+        L.append("|---|---|---|---|---|---|")
+        for m in sorted({r["method"] for r in rows if _exact(r)}):
+            good = [r for r in rows if r["method"] == m]
+            L.append(f"| {m} | {_fmt(min(r['h'] for r in good))} – {_fmt(max(r['h'] for r in good))} | "
+                     f"{_fmt(min(r['cpu_ms'] for r in good))} – {_fmt(max(r['cpu_ms'] for r in good))} | "
+                     f"{_fmt(min(r['err_rot'] for r in good))} – {_fmt(max(r['err_rot'] for r in good))} | "
+                     f"{_fmt(max(r['max_dH'] for r in good))} | {_fmt(max(r['max_dmu'] for r in good))} |")
+        L.append("")
+    if not L:
+        L.append("No t = 1000 rows in this run (bench/methods/implicit_long.cpp not built, or filtered out).\n")
+    return L
+
+
+def section(sweep, steps):
+    """Markdown lines: the implicit schemes' targets and the t = 1000 frontiers."""
+    L = ["## Implicit energy-momentum schemes: targets (docs/predictor.md)\n",
+         "Ratios within this run; the machine is shared, so quote ranges over runs.\n"]
+    L += _targets(sweep, steps)
+    L.append("")
+    L.append("## Long horizon: frontiers at t = 1000 (HT0, HT1)\n")
+    L += _long_frontiers(sweep)
+    return L

@@ -2,57 +2,7 @@
 // run with its stepper, for 1, 2 and 3 threads; a failing member stops alone, at the
 // state its single run stops at; per-member scenes; a scheme with memory; bad input
 // thrown before any step; allocations that do not grow with the number of steps.
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
-namespace ensemble_alloc {
-inline std::atomic<long> news{0};
-inline std::atomic<bool> counting{false};
-}  // namespace ensemble_alloc
-
-namespace {
-void* counted(std::size_t n) {
-  if (ensemble_alloc::counting.load(std::memory_order_relaxed)) ++ensemble_alloc::news;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* counted_aligned(std::size_t n, std::align_val_t a) {
-  if (ensemble_alloc::counting.load(std::memory_order_relaxed)) ++ensemble_alloc::news;
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
-// Every replaceable form, so that no allocation escapes the count and every pointer is
-// released by the matching function (AddressSanitizer checks the pairing).
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
-void* operator new[](std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "support/allocation_counter.hpp"  // first: it replaces operator new/delete
 
 #include <catch2/catch.hpp>
 
@@ -201,12 +151,12 @@ TEST_CASE("ensemble: allocations do not grow with the number of steps", "[ensemb
   const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
   auto count = [&](double t_end, unsigned threads) {
     auto members = ht1_members(4);
-    ensemble_alloc::news = 0;
-    ensemble_alloc::counting = true;
+    no_alloc::news = 0;
+    no_alloc::counting = true;
     const auto sums = integrate_ensemble(stepper, members, t_end, 0.001, {.threads = threads});
-    ensemble_alloc::counting = false;
+    no_alloc::counting = false;
     CHECK(sums[3].ok());
-    return ensemble_alloc::news.load();
+    return no_alloc::news.load();
   };
   for (unsigned threads : {1u, 2u}) {
     INFO("threads " << threads);

@@ -4,88 +4,17 @@
 //  - Eigen's own heap (aligned_malloc, which bypasses operator new) is watched with
 //    EIGEN_RUNTIME_NO_MALLOC, whose check goes through eigen_assert, defined here so that
 //    it records a violation in Release builds too (where the plain assert is compiled out).
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
-namespace no_alloc {
-/// Violations of EIGEN_RUNTIME_NO_MALLOC (or of any other Eigen assertion) in this file.
-inline std::atomic<long> eigen_violations{0};
-inline void eigen_violation(const char* /*what*/) { ++eigen_violations; }
-/// operator new calls while `counting` is set.
-inline std::atomic<long> news{0};
-inline std::atomic<bool> counting{false};
-}  // namespace no_alloc
-
-#define EIGEN_RUNTIME_NO_MALLOC
-#define eigen_assert(x)                                 \
-  do {                                                  \
-    if (!static_cast<bool>(x)) no_alloc::eigen_violation(#x); \
-  } while (false)
+#include "support/allocation_counter.hpp"  // first: it replaces operator new/delete
 
 #include <catch2/catch.hpp>
 
 #include "trompo/trompo.hpp"
 
-// ---- the counting global allocation functions ---------------------------------------------
-namespace {
-void* counted(std::size_t n) {
-  if (no_alloc::counting.load(std::memory_order_relaxed)) ++no_alloc::news;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* counted_aligned(std::size_t n, std::align_val_t a) {
-  if (no_alloc::counting.load(std::memory_order_relaxed)) ++no_alloc::news;
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  try {
-    return counted(n);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
-void* operator new[](std::size_t n, std::align_val_t a) { return counted_aligned(n, a); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-
-
 using namespace trompo;
+using no_alloc::allocations_in;
 using Vec3 = Eigen::Vector3d;
 
 namespace {
-
-template <class F>
-long allocations_in(F&& f) {
-  const long eigen_before = no_alloc::eigen_violations.load();
-  no_alloc::news = 0;
-  Eigen::internal::set_is_malloc_allowed(false);
-  no_alloc::counting = true;
-  f();
-  no_alloc::counting = false;
-  Eigen::internal::set_is_malloc_allowed(true);
-  return no_alloc::news.load() + (no_alloc::eigen_violations.load() - eigen_before);
-}
 
 /// n steps of a trajectory (the memory included), none allocating.
 template <class Scheme, class S>

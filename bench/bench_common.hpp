@@ -358,6 +358,38 @@ void register_sweep(const Problem<SceneT>& p, Scheme scheme, Composition composi
                       });
 }
 
+#ifdef TROMPO_HAVE_BOOST
+/// sweep/<case>/odeint-rk4/h:<h>: odeint's runge_kutta4 at step h to the case's end time.
+template <class SceneT>
+void register_odeint_rk4(const Problem<SceneT>& p, double h) {
+  const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-rk4/h:" + h_text(h);
+  benchmark::RegisterBenchmark(name.c_str(), [&p, h](benchmark::State& st) {
+    const long n = std::lround(p.c.t_end / h);
+    const RunResult r = run_odeint_rk4<true>(p.c, h, n);
+    if (!report(st, p, r, h, label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, h))) return;
+    for (auto _ : st) {
+      RunResult timed = run_odeint_rk4<false>(p.c, h, n);
+      benchmark::DoNotOptimize(timed.end);
+    }
+  })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+}
+
+/// sweep/<case>/odeint-dopri5/tol:<tol>: odeint's adaptive dopri5 to the case's end time.
+template <class SceneT>
+void register_odeint_dopri5(const Problem<SceneT>& p, double tol) {
+  const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-dopri5/tol:" + h_text(tol);
+  benchmark::RegisterBenchmark(name.c_str(), [&p, tol](benchmark::State& st) {
+    const RunResult r = run_odeint_dopri5<true>(p.c, tol);
+    const double h_mean = p.c.t_end / double(std::max(1L, r.steps));
+    if (!report(st, p, r, h_mean, label_of(p.c.name, "odeint-dopri5", "odeint-dopri5", 5, h_mean, tol))) return;
+    for (auto _ : st) {
+      RunResult timed = run_odeint_dopri5<false>(p.c, tol);
+      benchmark::DoNotOptimize(timed.end);
+    }
+  })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+}
+#endif
+
 template <class SceneT>
 void register_sweep_rk4(const Problem<SceneT>& p) {
   for (double h : grid(p.rk4, p.c.t_end)) {
@@ -375,32 +407,9 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
     })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
   }
 #ifdef TROMPO_HAVE_BOOST
-  for (double h : grid(p.rk4, p.c.t_end)) {
-    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-rk4/h:" + h_text(h);
-    benchmark::RegisterBenchmark(name.c_str(), [&p, h](benchmark::State& st) {
-      const long n = std::lround(p.c.t_end / h);
-      const RunResult r = run_odeint_rk4<true>(p.c, h, n);
-      if (!report(st, p, r, h, label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, h))) return;
-      for (auto _ : st) {
-        RunResult timed = run_odeint_rk4<false>(p.c, h, n);
-        benchmark::DoNotOptimize(timed.end);
-      }
-    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
-  }
+  for (double h : grid(p.rk4, p.c.t_end)) register_odeint_rk4(p, h);
   // dopri5: tolerances 1e-3 … 1e-14, half a decade apart.
-  for (int k = 6; k <= 28; ++k) {
-    const double tol = std::pow(10.0, -0.5 * k);
-    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-dopri5/tol:" + h_text(tol);
-    benchmark::RegisterBenchmark(name.c_str(), [&p, tol](benchmark::State& st) {
-      const RunResult r = run_odeint_dopri5<true>(p.c, tol);
-      const double h_mean = p.c.t_end / double(std::max(1L, r.steps));
-      if (!report(st, p, r, h_mean, label_of(p.c.name, "odeint-dopri5", "odeint-dopri5", 5, h_mean, tol))) return;
-      for (auto _ : st) {
-        RunResult timed = run_odeint_dopri5<false>(p.c, tol);
-        benchmark::DoNotOptimize(timed.end);
-      }
-    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
-  }
+  for (int k = 6; k <= 28; ++k) register_odeint_dopri5(p, std::pow(10.0, -0.5 * k));
 #endif
 }
 

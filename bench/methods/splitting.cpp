@@ -91,31 +91,8 @@ void sweep_all(const Problem<SceneT>& p, const SplitGrids& g, bool chin) {
 template <class SceneT>
 void register_baselines(const Problem<SceneT>& p, const std::vector<double>& tolerances,
                         const std::vector<double>& rk4_steps) {
-  for (double tol : tolerances) {
-    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-dopri5/tol:" + h_text(tol);
-    benchmark::RegisterBenchmark(name.c_str(), [&p, tol](benchmark::State& st) {
-      const RunResult r = run_odeint_dopri5<true>(p.c, tol);
-      const double h_mean = p.c.t_end / double(std::max(1L, r.steps));
-      if (!report(st, p, r, h_mean, label_of(p.c.name, "odeint-dopri5", "odeint-dopri5", 5, h_mean, tol))) return;
-      for (auto _ : st) {
-        RunResult timed = run_odeint_dopri5<false>(p.c, tol);
-        benchmark::DoNotOptimize(timed.end);
-      }
-    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
-  }
-  for (double h0 : rk4_steps) {
-    const double h = p.c.t_end / std::round(p.c.t_end / h0);
-    const std::string name = "sweep/" + std::string(p.c.name) + "/odeint-rk4/h:" + h_text(h);
-    benchmark::RegisterBenchmark(name.c_str(), [&p, h](benchmark::State& st) {
-      const long n = std::lround(p.c.t_end / h);
-      const RunResult r = run_odeint_rk4<true>(p.c, h, n);
-      if (!report(st, p, r, h, label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, h))) return;
-      for (auto _ : st) {
-        RunResult timed = run_odeint_rk4<false>(p.c, h, n);
-        benchmark::DoNotOptimize(timed.end);
-      }
-    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
-  }
+  for (double tol : tolerances) register_odeint_dopri5(p, tol);
+  for (double h0 : rk4_steps) register_odeint_rk4(p, p.c.t_end / std::round(p.c.t_end / h0));
 }
 #endif
 

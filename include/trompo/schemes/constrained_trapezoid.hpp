@@ -31,6 +31,7 @@ namespace trompo {
 /// of [T19]) and multiplier, valid for step size h. Default-constructed: fresh.
 template <class Scalar>
 struct ConstrainedTrapezoidMemory {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   Vector3 theta = Vector3::Zero();  ///< Θ_{n−1}
   Scalar lambda = Scalar(0);        ///< λ of the last step (O(h⁴), [T19])
@@ -56,14 +57,20 @@ struct ConstrainedTrapezoid {
   template <class Scene>
   class Residual {
    public:
+    /// The floating-point type.
     using Scalar = typename Scene::Scalar;
+    /// A 3-vector of Scalar.
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+    /// A 4-vector of Scalar.
     using Vector4 = Eigen::Matrix<Scalar, 4, 1>;
+    /// A 3×3 matrix of Scalar.
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+    /// A 4×4 matrix of Scalar.
     using Matrix4 = Eigen::Matrix<Scalar, 4, 4>;
     static_assert(!Scene::has_applied_torque,
                   "ConstrainedTrapezoid: enforces H, an invariant of conservative scenes only (no applied torques)");
 
+    /// The residual and its tangent at the step's data d.
     explicit Residual(const detail::StepData<Scene>& d) : d_(d) {
       const Scene& scene = d.scene;
       f_n_ = d.Pi_n.cross(d.omega_n);  // f_n = Π_n × Ω_n + τ_n

@@ -45,6 +45,7 @@ enum class ChiSchedule {
 /// next step, valid for step size h. Default-constructed: fresh.
 template <class Scalar>
 struct EnergyDecayingMemory {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   Vector3 theta = Vector3::Zero();  ///< Θ_{n−1}
   Vector3 delta = Vector3::Zero();  ///< δ_n = Ω_n − Ω_{n−1}
@@ -94,8 +95,11 @@ struct EnergyDecaying {
   template <class Scene>
   class Residual {
    public:
+    /// The floating-point type.
     using Scalar = typename Scene::Scalar;
+    /// A 3-vector of Scalar.
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+    /// A 3×3 matrix of Scalar.
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
     static_assert(!Scene::has_applied_torque,
                   "EnergyDecaying: the balance laws [T13] are for conservative scenes (no applied torques)");

@@ -30,6 +30,7 @@ namespace trompo {
 /// Default-constructed: fresh (the next step starts from the equations of motion).
 template <class Scalar>
 struct GenAlphaMemory {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   Vector3 omega_rate = Vector3::Zero();  ///< Ω̇_n, the true acceleration
   Vector3 a = Vector3::Zero();           ///< a_n, the acceleration-like variable [T8]
@@ -56,6 +57,7 @@ struct LieGenAlpha {
   };
 
   double rho_inf = 0.8;  ///< spectral radius at infinity ρ∞ ∈ [0, 1]
+  /// How the first step of a trajectory starts (plain or perturbed, docs/theory.md §11).
   Start start = Start::plain;
 
   LieGenAlpha() = default;
@@ -82,8 +84,11 @@ struct LieGenAlpha {
   template <class Scene>
   class Residual {
    public:
+    /// The floating-point type.
     using Scalar = typename Scene::Scalar;
+    /// A 3-vector of Scalar.
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+    /// A 3×3 matrix of Scalar.
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
     /// The memory must be started (LieGenAlpha::started_memory) for step size h.
     Residual(const LieGenAlpha& s, const Scene& scene, const State<Scalar>& in, Scalar h,

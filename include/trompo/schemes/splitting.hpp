@@ -124,6 +124,7 @@ struct SplittingScheme {
   /// A scheme running `m`.
   explicit SplittingScheme(SplittingMethod m) : method(m) {}
 
+  /// The scheme's name, as the CLI and the reports spell it.
   static constexpr const char* name = EnergyProjection ? "splitting-projected" : "splitting";
   static constexpr int order = 2;          ///< of the default (Strang); see order_of_accuracy()
   /// Every method is symmetric; the projected step is not (it pulls H back to the

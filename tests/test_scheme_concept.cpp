@@ -161,7 +161,7 @@ TEST_CASE("Scheme concept: ComposedStepper gives each sub-step index its own mem
   const auto c = cases::fb1<double>();
   const ComposedStepper<MidpointQ, Free> composed(MidpointQ{}, c.scene, Composition::suzuki5);
   auto traj = composed.start(c.initial);
-  static_assert(std::is_same_v<decltype(traj.memory), std::array<Memory, 9>>);
+  static_assert(std::is_same_v<decltype(traj.memory), std::array<Memory, CompositionCoefficients<double>::max_stages>>);
   const double H0 = c.scene.energy(traj);
   for (int i = 0; i < 100; ++i) REQUIRE(composed.step(traj, 0.02).ok());
   for (int i = 0; i < composed.stages(); ++i) CHECK(traj.memory[static_cast<std::size_t>(i)].steps == 100);

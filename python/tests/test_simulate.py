@@ -33,6 +33,19 @@ CASES = [
     (["--case", "ht1", "--scheme", "exact", "--t-end", "2", "--every", "100"],
      dict(case="ht1", scheme="exact", t_end=2, every=100)),
     (["--case", "ht1", "--dt", "-0.001", "--t-end", "-0.05"], dict(case="ht1", dt=-0.001, t_end=-0.05)),
+    # the schemes with memory: splitting (with the one switch flag), the families, order 8
+    (["--case", "ht0", "--scheme", "splitting", "--order", "4", "--energy-projection", "--dt", "0.01", "--t-end", "1"],
+     dict(case="ht0", scheme="splitting", order=4, energy_projection=True, dt=0.01, t_end=1)),
+    (["--case", "fb1", "--scheme", "splitting", "--composition", "kahan-li-9", "--t-end", "5"],
+     dict(case="fb1", scheme="splitting", composition="kahan-li-9", energy_projection=False, t_end=5)),
+    (["--case", "ht1", "--scheme", "lie-gen-alpha", "--rho-inf", "0.5", "--t-end", "0.5"],
+     dict(case="ht1", scheme="lie-gen-alpha", rho_inf=0.5, t_end=0.5)),
+    (["--case", "ht2", "--scheme", "energy-decaying", "--chi", "0.1", "--chi-schedule", "sensor", "--t-end", "0.05"],
+     dict(case="ht2", scheme="energy-decaying", chi=0.1, chi_schedule="sensor", t_end=0.05)),
+    (["--case", "ht1", "--scheme", "constrained-trapezoid", "--t-end", "0.5"],
+     dict(case="ht1", scheme="constrained-trapezoid", t_end=0.5)),
+    (["--case", "ht1", "--composition", "kahan-li-17", "--dt", "0.02", "--t-end", "1"],
+     dict(case="ht1", composition="kahan-li-17", dt=0.02, t_end=1)),
 ]
 
 

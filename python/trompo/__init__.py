@@ -89,6 +89,11 @@ def _flags(kwargs):
         if value is None:
             continue
         flag = "--" + name.replace("_", "-")
+        if isinstance(value, (bool, np.bool_)):
+            # A switch (energy_projection=True is --energy-projection); False leaves it out.
+            if value:
+                flags[flag] = ""
+            continue
         if name in _WORDS:
             flags[flag] = str(value)
         elif name in _SCALARS:

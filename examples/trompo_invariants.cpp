@@ -78,7 +78,7 @@ int main() {
   const auto ht1 = cases::ht1<double>();
   const exact::LagrangeTop top(5, 1, 20, ht1.initial.rotation.matrix(), ht1.initial.omega);
   table(ht1, 10.0, top.rotation(10.0));
-  M3 ht2_ref;  // Λ(2) of HT2, reference/ht2.csv (Runge–Kutta–Fehlberg 7(8), 128-bit, tol 1e-26)
+  M3 ht2_ref;  // Λ(2) of HT2, the published solution of docs/theory.md §8 (Runge–Kutta–Fehlberg 7(8), 128-bit, tol 1e-26)
   ht2_ref << -0.4874490822362657103411952, -0.150416822745641759810031, 0.8600977686647771186846382,
       -0.5379397438441505933085278, -0.7241655916368956507485545, -0.4315148060983244312796754,
       0.6877602956117137709979562, -0.6730222695604440960502209, 0.2720786659328456273933256;

@@ -86,7 +86,7 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags) {
   if (!c.ensemble.empty() || !c.csv.empty()) throw py::value_error("simulate: --ensemble and --csv are the CLI's");
   ArraySink sink;
   const double rows = std::abs(*c.t_end / *c.dt) / static_cast<double>(c.every) + 2;  // a guess, capped
-  sink.reserve(static_cast<std::size_t>(std::min(rows, 1e7)));
+  sink.reserve(static_cast<std::size_t>(std::min(rows, 1e5)));
   int code = 0;
   std::string error;
   {

@@ -152,3 +152,30 @@ TEST_CASE("no heap allocation for a scheme with memory (Stepper, ComposedStepper
   CHECK(sum.ok());
   CHECK(sum.recovered > 0);
 }
+
+TEST_CASE("no heap allocation in the splitting schemes and in 17-stage compositions with memory", "[no_alloc][memory]") {
+  const auto c = cases::ht1<double>();
+  using Top = cases::Top<double>;
+  const RigidBody<double> body(Mat3{{2.0, 0.1, 0.2}, {0.1, 3.0, 0.3}, {0.2, 0.3, 4.0}});  // full inertia
+  using Damped = Scene<double, UniformGravity<double>, ViscousDamping<double>, Rotor<double>>;
+  const Damped damped(body, UniformGravity<double>(5.0, Vec3(0.1, 0.2, 1.0)), ViscousDamping<double>(0.1),
+                      Rotor<double>(Vec3(0, 0, 0.5)));
+  auto steps = [](const auto& stepper, const State<double>& s0, double h) {
+    auto traj = stepper.start(s0);
+    int ok = 0;
+    const long count = allocations_in([&] {
+      for (int i = 0; i < 50; ++i) ok += stepper.step(traj, h).ok();
+    });
+    CHECK(count == 0);
+    CHECK(ok == 50);
+  };
+  for (const SplittingMethod m : {SplittingMethod::strang, SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump,
+                                  SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9}) {
+    INFO(to_string(m));
+    steps(Stepper<Splitting, Top>(Splitting(m), c.scene), c.initial, 0.001);
+    steps(Stepper<SplittingProjected, Top>(SplittingProjected(m), c.scene), c.initial, 0.001);
+  }
+  steps(Stepper<Splitting, Damped>(Splitting(SplittingMethod::kahan_li_9), damped), c.initial, 0.001);
+  steps(ComposedStepper<SimoKappa, Top>(SimoKappa{}, c.scene, Composition::kahan_li17), c.initial, 0.001);
+  steps(ComposedStepper<GeradinBauchau, Top>(GeradinBauchau{}, c.scene, Composition::mclachlan15), c.initial, 0.001);
+}

@@ -66,6 +66,11 @@ TEST_CASE("Scheme concept: the traits a test reads come from the scheme", "[sche
   CHECK_FALSE(keeps<Top>(GeradinBauchauPaper{}).momentum_map);
   CHECK(keeps<Free>(SimoKappa{}).spatial_momentum);
   CHECK_FALSE(keeps<Top>(SimoKappa{}).spatial_momentum);
+  // The splitting keeps μ on every scene, π only where the scene's flow keeps it.
+  CHECK(keeps<Top>(Splitting(SplittingMethod::strang)).momentum_map);
+  CHECK_FALSE(keeps<Top>(Splitting(SplittingMethod::strang)).spatial_momentum);
+  CHECK(keeps<Free>(SplittingProjected(SplittingMethod::chin_4a)).spatial_momentum);
+  CHECK(keeps<Free>(SplittingProjected(SplittingMethod::chin_4a)).energy);
 }
 
 TEST_CASE("Scheme concept: a user scheme with memory through Stepper keeps H on FB1 and counts its steps",

@@ -207,6 +207,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       c.order = static_cast<int>(k);
       c.order_flag = c.order;
     } else if (flag == "--energy-projection") {
+      if (!value.empty()) throw invalid_input("--energy-projection: a switch, it takes no value (got '" + value + "')");
       c.energy_projection = true;
     } else if (flag == "--composition") {
       c.composition_name = value;

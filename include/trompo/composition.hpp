@@ -193,7 +193,7 @@ struct composed_memory<NoMemory, N> {
 };
 }  // namespace detail
 
-/// Order 4 or 6 from a symmetric order-2 scheme by symmetric composition (docs/theory.md §6):
+/// Order 4, 6 or 8 from a symmetric order-2 scheme by symmetric composition (docs/theory.md §6, §13):
 /// one step of size h is the base steps γ_1 h, …, γ_s h. Keeps whatever the base keeps.
 template <class Scheme, class Scene_>
   requires SchemeFor<Scheme, Scene_>
@@ -209,7 +209,7 @@ class ComposedStepper {
   using Scalar = typename Scene::Scalar;
   /// The stepper of one sub-step.
   using Base = Stepper<Scheme, Scene>;
-  /// The memory of the base scheme (NoMemory for the library's schemes).
+  /// The memory of the base scheme (NoMemory for a memoryless one such as RK4 or Simo-α).
   using BaseMemory = typename Base::Memory;
   /// One base memory per sub-step index (NoMemory for a memoryless base).
   using Memory = typename detail::composed_memory<BaseMemory, CompositionCoefficients<Scalar>::max_stages>::type;

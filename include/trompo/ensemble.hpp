@@ -111,7 +111,8 @@ std::vector<IntegrationSummary<Scalar>> run_ensemble(std::size_t n_steppers, Ste
   if (threads <= 1) {
     block(0, n);
   } else {
-    std::vector<std::thread> pool;
+    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
+    std::vector<std::jthread> pool;
     pool.reserve(threads - 1);
     // Thread k takes [k·n/T, (k+1)·n/T); the calling thread takes block 0.
     for (unsigned k = 1; k < threads; ++k)

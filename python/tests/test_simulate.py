@@ -168,3 +168,13 @@ def test_gil_released_while_cpp_integrates():
     alive = worker.is_alive()
     worker.join()
     assert ticks == 20 and alive
+
+
+def test_a_switch_takes_a_bool_only():
+    # energy_projection=True is --energy-projection; a number or a string is refused (0 is not False).
+    for value in (1, 0, "false"):
+        with pytest.raises(ValueError, match="takes no value"):
+            trompo.simulate(case="ht1", scheme="splitting", energy_projection=value, t_end=0.01)
+    off = trompo.simulate(case="ht1", scheme="splitting", energy_projection=False, t_end=0.01)
+    plain = trompo.simulate(case="ht1", scheme="splitting", t_end=0.01)
+    assert np.array_equal(off["R"], plain["R"])

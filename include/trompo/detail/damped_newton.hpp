@@ -11,7 +11,7 @@
 // fixed for the step (the natural scale of each row, so that every row is resolved to
 // round-off of its own terms).
 //
-// Acceptance (STYLE item 8, as detail::newton in newton.hpp): r ≤ residual_tolerance
+// Acceptance (as detail::newton in newton.hpp): r ≤ residual_tolerance
 // after a full Newton correction δ with ‖δ‖ ≤ step_tolerance·x_scale, *and* the error
 // left after it, estimated as ρ‖δ‖ with ρ = r_k/r_{k−1} the contraction of that Newton
 // step, below ε·x_scale/1024. The last condition matters: a remainder near ε·x_scale is
@@ -21,8 +21,8 @@
 //
 // Backtracking (Armijo, on the weighted 2-norm): δ is scaled by t = 1, ½, ¼, … down to
 // 2⁻¹⁰ until ‖R(x + tδ)‖ ≤ (1 − 10⁻⁴ t)‖R(x)‖. If no t decreases it, the shortest
-// correction is taken anyway and the iteration goes on (as in the prototype of §11,
-// which never failed on the cases measured); the iteration cap ends a hopeless solve.
+// correction is taken anyway and the iteration goes on (on the cases of docs/theory.md §11
+// this never failed); the iteration cap ends a hopeless solve.
 // Nothing throws.
 #include <Eigen/Core>
 #include <Eigen/LU>

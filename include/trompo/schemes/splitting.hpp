@@ -130,9 +130,12 @@ struct SplittingScheme {
   /// Every method is symmetric; the projected step is not (it pulls H back to the
   /// trajectory's first energy, which h then −h does not undo), so it is not composable.
   static constexpr bool symmetric = !EnergyProjection;
-  /// μ (under a load symmetric about γ) and π (free body, rotor) always; H only projected.
+  /// μ (under a load symmetric about γ) always; π where the scene's flow keeps it (no
+  /// potential, no applied torque: the free body, with or without a rotor); H only projected.
   template <class Scene>
-  static constexpr Keeps keeps{.energy = EnergyProjection, .momentum_map = true, .spatial_momentum = true};
+  static constexpr Keeps keeps{.energy = EnergyProjection,
+                               .momentum_map = true,
+                               .spatial_momentum = !Scene::has_potential && !Scene::has_applied_torque};
   /// Whether the energy projection [S12] runs after each step.
   static constexpr bool energy_projection = EnergyProjection;
 
@@ -159,12 +162,12 @@ struct SplittingScheme {
   /// top Suzuki of the whole Strang step is the better order-4 choice). Throws
   /// invalid_input for an order other than 2, 4, 6.
   template <class Scene>
-  static SplittingScheme default_for(const Scene& scene, int order) {
-    if (order != 2 && order != 4 && order != 6) detail::fail("splitting: order must be 2, 4 or 6, got ", order);
-    if (order == 2) return SplittingScheme(SplittingMethod::strang);
+  static SplittingScheme default_for(const Scene& scene, int wanted_order) {
+    if (wanted_order != 2 && wanted_order != 4 && wanted_order != 6) detail::fail("splitting: order must be 2, 4 or 6, got ", wanted_order);
+    if (wanted_order == 2) return SplittingScheme(SplittingMethod::strang);
     const auto frame = detail::SplittingFrame<typename Scene::Scalar>::of(scene);
     const bool chin = detail::splitting_effects_of<Scene>::conservative && frame.free_flow_exact();
-    if (order == 4) return SplittingScheme(chin ? SplittingMethod::chin_4a : SplittingMethod::suzuki_5);
+    if (wanted_order == 4) return SplittingScheme(chin ? SplittingMethod::chin_4a : SplittingMethod::suzuki_5);
     return SplittingScheme(chin ? SplittingMethod::chin_triple_jump : SplittingMethod::kahan_li_9);
   }
 

@@ -24,6 +24,7 @@
 
 #include "trompo/cases.hpp"
 #include "trompo/composition.hpp"
+#include "trompo/processed_composition.hpp"
 #include "trompo/schemes/geradin_bauchau.hpp"
 #include "trompo/schemes/geradin_bauchau_paper.hpp"
 #include "trompo/schemes/rk4.hpp"
@@ -198,13 +199,31 @@ auto start_of(const StepperT& stepper, const State<double>& s) {
 
 /// n steps of a trompo stepper (Stepper or ComposedStepper). Instrumented: also tracks
 /// the invariants after every step and counts Newton iterations.
+/// A stepper with a deferred output (ProcessedStepper): the timed run advances its kernel and
+/// outputs once at the end, as integrate() does without an observer; the instrumented run
+/// outputs after every step, to track the invariants.
+template <class StepperT, class StateT>
+constexpr bool defers_output_v = requires(const StepperT& st, StateT& s, double h) {
+  st.advance(s, h);
+  st.output(s);
+};
+
 template <bool Instrumented, class StepperT, class SceneT>
 RunResult run_trompo(const StepperT& stepper, const cases::Case<SceneT>& c, double h, long n) {
   RunResult r;
   auto s = start_of(stepper, c.initial);
   Invariants<SceneT> inv(c.scene, s);
   for (long i = 0; i < n; ++i) {
-    const StepReport<double> rep = stepper.step(s, h);
+    StepReport<double> rep;
+    if constexpr (!Instrumented && defers_output_v<StepperT, decltype(s)>) {
+      rep = stepper.advance(s, h);
+      if (rep.ok() && i + 1 == n) {
+        const StepReport<double> out = stepper.output(s);
+        if (!out.ok()) rep = out;
+      }
+    } else {
+      rep = stepper.step(s, h);
+    }
     if (!rep.ok()) {
       r.ok = false;
       r.why = rep.reason();
@@ -449,6 +468,41 @@ void register_step_with(const Problem<SceneT>& p, const std::string& method, con
     step_loop(st, stepper, p);
     st.counters["substeps"] = stages_of(stepper);
     st.SetLabel(label_of(p.c.name, method, scheme, stepper.order(), p.h_step, 0, stages_of(stepper)));
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
+}
+
+/// sweep/<case>/<scheme>-p6/h:<h>: the processed order-6 composition of a symmetric scheme.
+template <class Scheme, class SceneT>
+void register_processed_sweep(const Problem<SceneT>& p, Scheme scheme, const Grid& g) {
+  register_sweep_with(p, std::string(Scheme::name) + "-p6", Scheme::name, g,
+                      [scheme](const SceneT& scene) { return ProcessedStepper<Scheme, SceneT>(scheme, scene); });
+}
+
+/// step/<case>/<scheme>-p6: one kernel step of the processed composition (13 base steps), the
+/// cost per step of a run whose output is post-processed once (integrate() without observer).
+template <class Scheme, class SceneT>
+void register_processed_step(const Problem<SceneT>& p, Scheme scheme) {
+  const std::string method = std::string(Scheme::name) + "-p6";
+  benchmark::RegisterBenchmark(("step/" + std::string(p.c.name) + "/" + method).c_str(),
+                               [&p, scheme, method](benchmark::State& st) {
+    const ProcessedStepper<Scheme, SceneT> stepper(scheme, p.c.scene);
+    const double h = p.h_step;
+    auto s = stepper.start(p.c.initial);
+    long newton = 0, evaluations = 0, tangents = 0;
+    for (auto _ : st) {
+      const StepReport<double> rep = stepper.advance(s, h);
+      newton += rep.iterations;
+      evaluations += rep.evaluations;
+      tangents += rep.tangents;
+      benchmark::DoNotOptimize(s);
+      if (stepper.time(s) > p.c.t_end) s = stepper.start(p.c.initial);  // stay on the case's trajectory
+    }
+    st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
+    st.counters["evals"] = benchmark::Counter(double(evaluations), benchmark::Counter::kAvgIterations);
+    st.counters["tangents"] = benchmark::Counter(double(tangents), benchmark::Counter::kAvgIterations);
+    st.counters["h"] = h;
+    st.counters["substeps"] = stepper.stages();
+    st.SetLabel(label_of(p.c.name, method, Scheme::name, stepper.order(), h, 0, stepper.stages()));
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
 }
 

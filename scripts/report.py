@@ -53,14 +53,16 @@ SCHEME_COLORS = {
     "odeint-rk4": "#000000",
     "odeint-dopri5": "#8c564b",
 }
-ORDER_STYLES = {"": "-", "o4": "--", "o4s": (0, (5, 1, 1, 1)), "o6": ":"}
-VARIANT_TITLES = {"o4": " (order 4)", "o4s": " (order 4, Suzuki)", "o6": " (order 6)"}
+ORDER_STYLES = {"": "-", "o4": "--", "o4s": (0, (5, 1, 1, 1)), "o6": ":", "p6": (0, (1, 1))}
+VARIANT_TITLES = {"o4": " (order 4)", "o4s": " (order 4, Suzuki)", "o6": " (order 6)",
+                  "p6": " (order 6, processed)"}
 
 
 def split_method(m):
     """'simo-kappa-o4s' -> ('simo-kappa', 'o4s'); variants: o4 (triple jump), o4s (Suzuki's
-    five steps), o6 (Kahan-Li); '' for the base scheme and the baselines."""
-    for v in ("o4s", "o4", "o6"):
+    five steps), o6 (Kahan-Li), p6 (processed, Blanes-Casas-Murua); '' for the base scheme
+    and the baselines."""
+    for v in ("o4s", "o4", "o6", "p6"):
         if m.endswith("-" + v):
             return m[: -len(v) - 1], v
     return m, ""
@@ -471,7 +473,7 @@ def method_order(m):
     base, variant = split_method(m)
     if base.startswith("odeint-dopri5"):
         base = "odeint-dopri5"
-    return (rank.get(base, 9), ["", "o4", "o4s", "o6"].index(variant))
+    return (rank.get(base, 9), ["", "o4", "o4s", "o6", "p6"].index(variant))
 
 
 def plot_grid(report_dir, sweep, fname, xkey, ykey, xlabel, ylabel, title, methods_filter=None, yfloor=None,

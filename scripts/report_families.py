@@ -65,7 +65,7 @@ def family_of(method):
     if method.startswith("splitting"):
         return "splitting"
     base = method
-    for v in ("-o4s", "-o4", "-o6", "-o8m", "-o8"):
+    for v in ("-o4s", "-o4", "-o6", "-o8m", "-o8", "-p6"):
         if base.endswith(v):
             base = base[: -len(v)]
     return "energy-momentum" if base in EM_SCHEMES else "other"

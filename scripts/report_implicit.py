@@ -79,7 +79,7 @@ def _targets(sweep, steps):
         L.append("| Simo-κ step vs odeint runge_kutta4 | not in this run | — |")
     for scheme in ("simo-kappa", "geradin-bauchau"):
         base = steps.get(("ht1", scheme))
-        for v in ("o4s", "o6"):
+        for v in ("o4s", "o6", "o8", "p6"):
             comp = steps.get(("ht1", f"{scheme}-{v}"))
             if base and comp:
                 per = comp["ns"] / comp["substeps"]

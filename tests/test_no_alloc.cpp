@@ -179,3 +179,23 @@ TEST_CASE("no heap allocation in the splitting schemes and in 17-stage compositi
   steps(ComposedStepper<SimoKappa, Top>(SimoKappa{}, c.scene, Composition::kahan_li17), c.initial, 0.001);
   steps(ComposedStepper<GeradinBauchau, Top>(GeradinBauchau{}, c.scene, Composition::mclachlan15), c.initial, 0.001);
 }
+
+TEST_CASE("no heap allocation in the processed composition (step, advance, output, integrate)", "[no_alloc][memory]") {
+  const auto c = cases::ht1<double>();
+  using Top = cases::Top<double>;
+  const ProcessedStepper<SimoKappa, Top> st(SimoKappa{}, c.scene);
+  auto traj = st.start(c.initial);
+  int ok = 0;
+  CHECK(allocations_in([&] {
+          for (int i = 0; i < 20; ++i) ok += st.step(traj, 0.001).ok();
+          for (int i = 0; i < 20; ++i) ok += st.advance(traj, 0.001).ok();
+          ok += st.output(traj).ok();
+        }) == 0);
+  CHECK(ok == 41);
+  // integrate(): deferred output, a last step of another h (re-processing), and recovery.
+  auto t2 = st.start(c.initial);
+  IntegrationSummary<double> sum;
+  CHECK(allocations_in([&] { sum = integrate(st, t2, 0.105, 0.01); }) == 0);
+  CHECK(sum.ok());
+  CHECK(sum.steps == 11);
+}

@@ -50,6 +50,8 @@ constexpr const char* kUsage =
     "  --composition triple-jump|suzuki-5|kahan-li-9|mclachlan-15|kahan-li-17   a named composition\n"
     "                               (suzuki-5: order 4 in 5 sub-steps, far smaller error than the\n"
     "                               triple jump; mclachlan-15, kahan-li-17: order 8)\n"
+    "  --composition blanes-casas-murua-13   processed order 6: a 13-step kernel between a pre- and a\n"
+    "                               post-processor (12 steps each), every row post-processed\n"
     "  splitting (explicit, spin-exact; docs/splitting.md):\n"
     "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9   with --scheme splitting\n"
     "                               (suzuki-5, kahan-li-9: compositions of Strang); default by --order:\n"
@@ -95,6 +97,7 @@ struct Config {
   int order = 2;
   std::optional<int> order_flag;                    ///< --order as given
   std::optional<trompo::Composition> composition;  ///< --composition as given
+  bool processed = false;  ///< --composition blanes-casas-murua-13 (ProcessedStepper)
   double damping = 0;
   V3 body_torque = V3::Zero();
   V3 space_torque = V3::Zero();
@@ -218,8 +221,9 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
           c.composition = m;
           known = true;
         }
+      if (value == "blanes-casas-murua-13") c.processed = known = true;
       if (!known)
-        throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15 or kahan-li-17 (with --scheme splitting: strang, "
+        throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15, kahan-li-17 or blanes-casas-murua-13 (with --scheme splitting: strang, "
                             "chin-4a, chin-triple-jump, suzuki-5 or kahan-li-9), got " + value);
     } else if (flag == "--damping") {
       c.damping = parse_number(flag, value);
@@ -270,7 +274,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   // ---- splitting: its compositions are its own methods ----
   if (c.scheme == "splitting") {
     if (c.composition_name) {
-      for (const char* implicit_only : {"triple-jump", "mclachlan-15", "kahan-li-17"})
+      for (const char* implicit_only : {"triple-jump", "mclachlan-15", "kahan-li-17", "blanes-casas-murua-13"})
         if (*c.composition_name == implicit_only)
           throw invalid_input("--composition " + *c.composition_name +
                               ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9)");
@@ -286,7 +290,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     return c;
   }
   if (c.energy_projection) throw invalid_input("--energy-projection: only with --scheme splitting");
-  if (c.composition_name && !c.composition)
+  if (c.composition_name && !c.composition && !c.processed)
     throw invalid_input("--composition " + *c.composition_name + ": only with --scheme splitting");
   // ---- end splitting ----
   if (c.composition) {
@@ -294,6 +298,12 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     if (c.order_flag && *c.order_flag != c.order)
       throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
                           trompo::to_string(*c.composition) + " (order " + std::to_string(c.order) + ")");
+  }
+  if (c.processed) {
+    if (c.order_flag && *c.order_flag != 6)
+      throw invalid_input("--order: " + std::to_string(*c.order_flag) +
+                          " contradicts --composition blanes-casas-murua-13 (order 6)");
+    c.order = 6;
   }
   // ---- families: not composed by the CLI ----
   const bool family = c.scheme == "lie-gen-alpha" || c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying";
@@ -489,6 +499,7 @@ int run_scheme(const Config& c, Scheme scheme, const Scene& scene, const trompo:
     return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
   } else {
     if (c.order == 2) return run(trompo::Stepper<Scheme, Scene>(scheme, scene), c, s0, out);
+    if (c.processed) return run(trompo::ProcessedStepper<Scheme, Scene>(scheme, scene), c, s0, out);
     return run(trompo::ComposedStepper<Scheme, Scene>(scheme, scene,
                                                       c.composition ? *c.composition : trompo::composition_of_order(c.order)),
                c, s0, out);
@@ -715,6 +726,10 @@ trompo::Stepper<Scheme, SceneT> with_scene(const trompo::Stepper<Scheme, SceneT>
 template <class Scheme, class SceneT>
 trompo::ComposedStepper<Scheme, SceneT> with_scene(const trompo::ComposedStepper<Scheme, SceneT>& st, SceneT scene) {
   return trompo::ComposedStepper<Scheme, SceneT>(st.scheme(), std::move(scene), st.method(), st.options());
+}
+template <class Scheme, class SceneT>
+trompo::ProcessedStepper<Scheme, SceneT> with_scene(const trompo::ProcessedStepper<Scheme, SceneT>& st, SceneT scene) {
+  return trompo::ProcessedStepper<Scheme, SceneT>(st.scheme(), std::move(scene), st.options());
 }
 
 /// The ensemble counterpart of run(): every member from t = 0 to t_end by integrate_ensemble

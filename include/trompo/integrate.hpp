@@ -31,6 +31,13 @@
 // each whole interval of the grid (never on sub-steps). Without one the calls are
 // compiled out (`if constexpr`): no cost, no branch.
 //
+// Deferred output. A stepper whose outputs cost extra (ProcessedStepper: a post-processor
+// of 12 base steps) offers advance(traj, h), output(traj), time(traj), set_time(traj, t).
+// Without an observer, integrate then advances the kernel through the grid and outputs
+// once, at the end (or where a failure stopped it); the grid, the recovery rule and the
+// summary are as above. If that last output fails, the state stays the previous output
+// (state.time says when) and the summary carries the failure.
+//
 // Schemes with memory (scheme.hpp). Pass the stepper's Trajectory (stepper.start(s)) to
 // carry the memory across calls; a failed interval leaves state and memory as they were,
 // and the sub-steps of a recovered interval see the memory in sequence, as the state. A
@@ -81,7 +88,21 @@ struct IntegrationSummary {
 
 namespace detail {
 
-template <class Stepper, class StateT>
+/// Whether integrate() may defer the output: a stepper with advance/output (a processed
+/// composition, processed_composition.hpp) on its trajectory, and no observer.
+template <class Stepper, class StateT, class Observer>
+constexpr bool defers_output() {
+  if constexpr (!std::is_same_v<std::decay_t<Observer>, NoObserver>) return false;
+  else
+    return requires(const Stepper& st, StateT& s, typename Stepper::Scalar t) {
+      st.advance(s, t);
+      st.output(s);
+      st.set_time(s, t);
+      { st.time(s) } -> std::convertible_to<typename Stepper::Scalar>;
+    };
+}
+
+template <class Stepper, class StateT, bool Deferred = false>
 struct Integrator {
   using Scalar = typename Stepper::Scalar;
   const Stepper& stepper;
@@ -89,12 +110,22 @@ struct Integrator {
   IntegrationSummary<Scalar>& sum;
   int max_halvings;
 
+  /// The time reached (with a deferred output, the stepper's kernel is ahead of the state).
+  Scalar time() const {
+    if constexpr (Deferred) return stepper.time(state);
+    else return state.time;
+  }
+
   /// One step of size dt that should end at the (sub-)grid time t_b.
   bool attempt(Scalar dt, Scalar t_b) {
-    const StepReport<Scalar> rep = stepper.step(state, dt);
+    StepReport<Scalar> rep;
+    if constexpr (Deferred) rep = stepper.advance(state, dt);
+    else rep = stepper.step(state, dt);
     sum.iterations += rep.iterations;
     if (rep.ok()) {
-      state.time = t_b;  // the grid time, not t_a + dt with its rounding
+      // The grid time, not t_a + dt with its rounding.
+      if constexpr (Deferred) stepper.set_time(state, t_b);
+      else state.time = t_b;
       return true;
     }
     ++sum.failures;
@@ -103,13 +134,13 @@ struct Integrator {
     return false;
   }
 
-  /// Covers [state.time, t_b], of size dt, by two halves at `depth` (≥ 1); a half that
+  /// Covers [time(), t_b], of size dt, by two halves at `depth` (≥ 1); a half that
   /// fails as one step is halved again, down to max_halvings.
   bool halve(Scalar dt, Scalar t_b, int depth) {
     if (depth > sum.max_depth) sum.max_depth = depth;
     const Scalar half = dt / Scalar(2);  // exact in binary floating point
-    const Scalar t_mid = state.time + half;
-    if (!(t_mid != state.time && t_mid != t_b)) return false;  // no room left to halve
+    const Scalar t_mid = time() + half;
+    if (!(t_mid != time() && t_mid != t_b)) return false;  // no room left to halve
     for (const Scalar t : {t_mid, t_b}) {
       if (attempt(half, t)) {
         ++sum.substeps;
@@ -120,7 +151,7 @@ struct Integrator {
     return true;
   }
 
-  /// One grid interval [state.time, t_b] of size dt.
+  /// One grid interval [time(), t_b] of size dt.
   bool interval(Scalar dt, Scalar t_b) {
     if (attempt(dt, t_b)) {
       ++sum.steps;
@@ -130,6 +161,20 @@ struct Integrator {
     ++sum.recovered;
     sum.status = StepStatus::ok;
     return true;
+  }
+
+  /// With a deferred output: brings the state up to the time reached (after the last
+  /// interval, or after a failure). A failure here is the summary's status.
+  void finish() {
+    if constexpr (Deferred) {
+      const StepReport<Scalar> rep = stepper.output(state);
+      sum.iterations += rep.iterations;
+      if (!rep.ok()) {
+        ++sum.failures;
+        sum.last_failure = rep.status;
+        sum.status = rep.status;
+      }
+    }
   }
 };
 
@@ -193,6 +238,18 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
 
   if (!finite(h) || h == Scalar(0)) detail::fail("integrate: time step h must be finite and non-zero, got ", h);
   if (!finite(t_end)) detail::fail("integrate: end time t_end must be finite, got ", t_end);
+  if constexpr (requires { stepper.output(state); }) {
+    // A trajectory left with its output pending (ProcessedStepper::advance by hand): start
+    // from that output.
+    const StepReport<Scalar> rep = stepper.output(state);
+    if (!rep.ok()) {
+      IntegrationSummary<Scalar> failed;
+      failed.status = failed.last_failure = rep.status;
+      failed.failures = 1;
+      failed.time = state.time;
+      return failed;
+    }
+  }
   state.validate();
   const Scalar t0 = state.time;
   const Scalar span = t_end - t0;
@@ -222,14 +279,16 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
       detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ", far);
   }
 
-  Integrator<Stepper, StateT> run{stepper, state, sum, options.max_halvings};
+  Integrator<Stepper, StateT, defers_output<Stepper, StateT, Observer>()> run{stepper, state, sum,
+                                                                                options.max_halvings};
   for (std::int64_t k = 1; k <= n; ++k) {
     // Whole steps of exactly h; the last one is whatever is left to t_end.
     const bool last = k == n;
     const Scalar t_b = last ? t_end : t0 + static_cast<Scalar>(k) * h;
-    if (!run.interval(last ? t_end - state.time : h, t_b)) break;
+    if (!run.interval(last ? t_end - run.time() : h, t_b)) break;
     if constexpr (observed) observer(static_cast<const State<Scalar>&>(state));
   }
+  run.finish();
   sum.time = state.time;
   return sum;
 }

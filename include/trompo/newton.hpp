@@ -51,6 +51,15 @@ struct StepReport {
   bool ok() const { return status == StepStatus::ok; }
   /// The status as text.
   const char* reason() const { return to_string(status); }
+  /// Adds a sub-step's report to this step's (compositions): counts summed, the largest
+  /// residual, and the sub-step's status if it failed.
+  void absorb(const StepReport& sub) {
+    iterations += sub.iterations;
+    evaluations += sub.evaluations;
+    tangents += sub.tangents;
+    if (sub.residual > residual) residual = sub.residual;
+    if (!sub.ok()) status = sub.status;
+  }
 };
 
 /// Newton controls. The defaults reach round-off in 2–4 iterations at moderate h.

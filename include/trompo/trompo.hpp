@@ -13,6 +13,7 @@
 #include "trompo/errors.hpp"
 #include "trompo/integrate.hpp"
 #include "trompo/newton.hpp"
+#include "trompo/processed_composition.hpp"
 #include "trompo/scene.hpp"
 #include "trompo/scheme.hpp"
 #include "trompo/schemes/constrained_trapezoid.hpp"

@@ -46,6 +46,8 @@ CASES = [
      dict(case="ht1", scheme="constrained-trapezoid", t_end=0.5)),
     (["--case", "ht1", "--composition", "kahan-li-17", "--dt", "0.02", "--t-end", "1"],
      dict(case="ht1", composition="kahan-li-17", dt=0.02, t_end=1)),
+    (["--case", "ht1", "--composition", "blanes-casas-murua-13", "--dt", "0.02", "--t-end", "1"],
+     dict(case="ht1", composition="blanes-casas-murua-13", dt=0.02, t_end=1)),
 ]
 
 

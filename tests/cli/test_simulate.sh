@@ -80,6 +80,14 @@ check "suzuki-5 beats the triple jump against the exact R00(10)" '[ $rc -eq 0 ] 
 # --composition kahan-li-17 (order 8, 17 sub-steps): closer than suzuki-5 at 2.5x the step.
 "$sim" --case ht1 --scheme simo-kappa --composition kahan-li-17 --dt 0.025 --every 100000 >"$tmp/o8.csv"; rc=$?
 check "kahan-li-17 at dt 0.025 beats suzuki-5 at dt 0.01 against the exact R00(10)" '[ $rc -eq 0 ] && awk -F, -v a="$(tail -1 "$tmp/o4s.csv" | cut -d, -f2)" -v b="$(tail -1 "$tmp/o8.csv" | cut -d, -f2)" "BEGIN{x=a+0.88035320824679323; y=b+0.88035320824679323; if(x<0)x=-x; if(y<0)y=-y; exit !(y < x)}"'
+# --composition blanes-casas-murua-13 (processed order 6, 13 sub-steps per step): closer than
+# kahan-li-9 (order 6, 9 sub-steps) at the same number of base steps per unit time.
+"$sim" --case ht1 --scheme simo-kappa --composition kahan-li-9 --dt 0.02 --every 100000 >"$tmp/o6.csv"; rc=$?
+"$sim" --case ht1 --scheme simo-kappa --composition blanes-casas-murua-13 --dt 0.025 --every 50 >"$tmp/p6.csv"; rc2=$?
+check "blanes-casas-murua-13 at dt 0.025 beats kahan-li-9 at dt 0.02 against the exact R00(10)" '[ $rc -eq 0 ] && [ $rc2 -eq 0 ] && awk -F, -v a="$(tail -1 "$tmp/o6.csv" | cut -d, -f2)" -v b="$(tail -1 "$tmp/p6.csv" | cut -d, -f2)" "BEGIN{x=a+0.88035320824679323; y=b+0.88035320824679323; if(x<0)x=-x; if(y<0)y=-y; exit !(y < x/3)}"'
+check "blanes-casas-murua-13 keeps H to 1e-13 on every row" 'awk -F, "NR==2{h0=\$14} NR>2{d=(\$14-h0)/h0; if(d<0)d=-d; if(d>1e-13) bad=1} END{exit bad}" "$tmp/p6.csv"'
+"$sim" --case ht1 --scheme splitting --composition blanes-casas-murua-13 >/dev/null 2>"$tmp/err.txt"; rc=$?
+check "blanes-casas-murua-13 is not a splitting method" '[ $rc -ne 0 ] && grep -q "not a splitting method" "$tmp/err.txt"'
 
 # Effects: damping loses energy at every row; a rotor enters pi but not H.
 "$sim" --case ht1 --damping 1 --t-end 1 --every 100 >"$tmp/damp.csv"; rc=$?

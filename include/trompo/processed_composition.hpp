@@ -155,6 +155,22 @@ class ProcessedStepper {
   /// (memory.pending); output() brings it up to date. integrate() uses this pair when no
   /// observer wants the intermediate states. On failure nothing changes.
   StepReport<Scalar> advance(TrajectoryType& traj, Scalar h) const {
+    Memory& mem = traj.memory;
+    if (mem.h == h && h != Scalar(0)) {  // primed for this h (a fresh memory has h = 0)
+      // The common case: the kernel alone moves. It steps in place, with a backup of what
+      // it changes (the kernel state and its 13 sub-step memories), restored on failure:
+      // one copy per step instead of the whole memory in and out.
+      const State<Scalar> kernel = mem.kernel;
+      const auto kernel_memory = mem.kernel_memory;
+      const StepReport<Scalar> rep = kernel_step(mem, h);
+      if (!rep.ok()) {
+        mem.kernel = kernel;
+        mem.kernel_memory = kernel_memory;
+        return rep;
+      }
+      mem.pending = true;
+      return rep;
+    }
     Memory m = traj.memory;
     State<Scalar> x = traj.state();
     const StepReport<Scalar> rep = advance_kernel(x, m, h);
@@ -270,11 +286,15 @@ class ProcessedStepper {
       total.absorb(pre_process(x, m, h));
       if (!total.ok()) return total;
     }
-    // K_h = Φ_{a_13 h} ∘ … ∘ Φ_{a_1 h} [P5].
-    const Scalar t_end = m.kernel.time + h;
-    total.absorb(sequence(m.kernel, coefficients_.kernel, false, h, t_end,
-                          [&](std::size_t k) -> BaseMemory& { return m.kernel_memory[k]; }));
+    total.absorb(kernel_step(m, h));
     return total;
+  }
+
+  /// K_h = Φ_{a_13 h} ∘ … ∘ Φ_{a_1 h} on m.kernel, with the kernel's memories [P5].
+  StepReport<Scalar> kernel_step(Memory& m, Scalar h) const {
+    const Scalar t_end = m.kernel.time + h;
+    return sequence(m.kernel, coefficients_.kernel, false, h, t_end,
+                    [&](std::size_t k) -> BaseMemory& { return m.kernel_memory[k]; });
   }
 
   Base base_;

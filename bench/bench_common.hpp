@@ -435,18 +435,26 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
 
 // ---- per-step family ---------------------------------------------------------------------------
 
+/// The timed loop of a per-step benchmark: steps of p.h_step, back to the start at the case's
+/// end time. A stepper with a deferred output (ProcessedStepper) is timed by its advance():
+/// the cost per step of a run whose output is post-processed once.
 template <class StepperT, class SceneT>
 void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<SceneT>& p) {
   const double h = p.h_step;
   auto s = start_of(stepper, p.c.initial);
+  constexpr bool deferred = defers_output_v<StepperT, decltype(s)>;
   long newton = 0, evaluations = 0, tangents = 0;
   for (auto _ : st) {
-    const StepReport<double> rep = stepper.step(s, h);
+    StepReport<double> rep;
+    if constexpr (deferred) rep = stepper.advance(s, h);
+    else rep = stepper.step(s, h);
     newton += rep.iterations;
     evaluations += rep.evaluations;
     tangents += rep.tangents;
     benchmark::DoNotOptimize(s);
-    if (s.time > p.c.t_end) s = start_of(stepper, p.c.initial);  // stay on the case's trajectory
+    double t = s.time;
+    if constexpr (deferred) t = stepper.time(s);
+    if (t > p.c.t_end) s = start_of(stepper, p.c.initial);  // stay on the case's trajectory
   }
   st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
   st.counters["evals"] = benchmark::Counter(double(evaluations), benchmark::Counter::kAvgIterations);
@@ -482,28 +490,8 @@ void register_processed_sweep(const Problem<SceneT>& p, Scheme scheme, const Gri
 /// cost per step of a run whose output is post-processed once (integrate() without observer).
 template <class Scheme, class SceneT>
 void register_processed_step(const Problem<SceneT>& p, Scheme scheme) {
-  const std::string method = std::string(Scheme::name) + "-p6";
-  benchmark::RegisterBenchmark(("step/" + std::string(p.c.name) + "/" + method).c_str(),
-                               [&p, scheme, method](benchmark::State& st) {
-    const ProcessedStepper<Scheme, SceneT> stepper(scheme, p.c.scene);
-    const double h = p.h_step;
-    auto s = stepper.start(p.c.initial);
-    long newton = 0, evaluations = 0, tangents = 0;
-    for (auto _ : st) {
-      const StepReport<double> rep = stepper.advance(s, h);
-      newton += rep.iterations;
-      evaluations += rep.evaluations;
-      tangents += rep.tangents;
-      benchmark::DoNotOptimize(s);
-      if (stepper.time(s) > p.c.t_end) s = stepper.start(p.c.initial);  // stay on the case's trajectory
-    }
-    st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
-    st.counters["evals"] = benchmark::Counter(double(evaluations), benchmark::Counter::kAvgIterations);
-    st.counters["tangents"] = benchmark::Counter(double(tangents), benchmark::Counter::kAvgIterations);
-    st.counters["h"] = h;
-    st.counters["substeps"] = stepper.stages();
-    st.SetLabel(label_of(p.c.name, method, Scheme::name, stepper.order(), h, 0, stepper.stages()));
-  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
+  register_step_with(p, std::string(Scheme::name) + "-p6", Scheme::name,
+                     [scheme](const SceneT& scene) { return ProcessedStepper<Scheme, SceneT>(scheme, scene); });
 }
 
 /// The step of a symmetric scheme composed by `order` (an order 2/4/6 or a Composition).

@@ -73,8 +73,11 @@ struct EnergyDecaying {
 
   EnergyDecaying() = default;
   /// Throws invalid_input unless 0 ≤ χ ≤ 1.
-  explicit EnergyDecaying(double x, ChiSchedule s = ChiSchedule::constant) : chi(x), schedule(s) {
-    if (!(x >= 0.0 && x <= 1.0)) detail::fail("energy-decaying: chi must be in [0, 1], got ", x);
+  explicit EnergyDecaying(double x, ChiSchedule s = ChiSchedule::constant) : chi(x), schedule(s) { validate(); }
+
+  /// Throws invalid_input unless 0 ≤ χ ≤ 1 (Stepper calls it: chi is a public field).
+  void validate() const {
+    if (!(chi >= 0.0 && chi <= 1.0)) detail::fail("energy-decaying: chi must be in [0, 1], got ", chi);
   }
 
   /// Symmetric only without dissipation.

@@ -62,8 +62,11 @@ struct LieGenAlpha {
 
   LieGenAlpha() = default;
   /// Throws invalid_input unless 0 ≤ ρ∞ ≤ 1.
-  explicit LieGenAlpha(double rho, Start s = Start::plain) : rho_inf(rho), start(s) {
-    if (!(rho >= 0.0 && rho <= 1.0)) detail::fail("lie-gen-alpha: rho_inf must be in [0, 1], got ", rho);
+  explicit LieGenAlpha(double rho, Start s = Start::plain) : rho_inf(rho), start(s) { validate(); }
+
+  /// Throws invalid_input unless 0 ≤ ρ∞ ≤ 1 (Stepper calls it: rho_inf is a public field).
+  void validate() const {
+    if (!(rho_inf >= 0.0 && rho_inf <= 1.0)) detail::fail("lie-gen-alpha: rho_inf must be in [0, 1], got ", rho_inf);
   }
 
   /// The coefficients of [T7] (Chung–Hulbert convention).

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include <algorithm>
+#include <iterator>
 #include <limits>
 #include <type_traits>
 
@@ -166,6 +167,15 @@ inline void apply_case(const std::string& name, Config& c) {
   else throw invalid_input("--case: unknown case '" + name + "' (ht0, ht1, ht2, fb1, fb2)");
 }
 
+/// Whether `name` is a --scheme the CLI runs.
+inline bool known_scheme(const std::string& name) {
+  static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
+                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
+                                        "splitting",       "lie-gen-alpha",         "constrained-trapezoid",
+                                        "energy-decaying"};
+  return std::any_of(std::begin(schemes), std::end(schemes), [&](const char* s) { return name == s; });
+}
+
 /// The flags (name with its "--" → value) as a Config, with the CLI's checks and messages.
 /// trompo-simulate's parse() and the Python module (python/trompo_module.cpp) both come here.
 inline Config parse_flags(const std::map<std::string, std::string>& flags) {
@@ -246,6 +256,9 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     }
     else throw invalid_input("unknown option '" + flag + "' (see --help)");
   }
+  // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
+  // checks name the scheme they need, which misleads when the name itself is a typo.
+  if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
   if (!c.have_inertia) throw invalid_input("--inertia: required (or give --case)");
   if (!c.dt) throw invalid_input("--dt: required (or give --case)");
   if (!c.t_end) throw invalid_input("--t-end: required (or give --case)");
@@ -295,15 +308,19 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
                           trompo::to_string(*c.composition) + " (order " + std::to_string(c.order) + ")");
   }
+  // The flag that asked for a composition, as the messages below name it.
+  const std::string composed_by =
+      c.composition ? "--composition " + std::string(trompo::to_string(*c.composition)) : std::string("--order");
   // ---- families: not composed by the CLI ----
   const bool family = c.scheme == "lie-gen-alpha" || c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying";
   if (family && c.order != 2)
-    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
+    throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
                         " is not composed by the CLI");
   if (c.order != 2 && (c.scheme == "rk4" || c.scheme == "exact"))
-    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " + c.scheme);
+    throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " +
+                        c.scheme);
   if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
-    throw invalid_input("--order: simo-alpha is symmetric only for alpha = 0.5");
+    throw invalid_input(composed_by + ": simo-alpha is symmetric only for alpha = 0.5");
   if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
   if (!c.ensemble.empty())
     for (const char* f : {"--rotation", "--omega", "--every"})
@@ -563,13 +580,7 @@ inline void validate(const Config& c) {
   s0.omega = c.omega;
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
-  static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
-                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
-                                        "splitting",       "lie-gen-alpha",         "constrained-trapezoid",
-                                        "energy-decaying"};
-  bool known = false;
-  for (const char* name : schemes) known = known || c.scheme == name;
-  if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+  if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
   const UniformGravity<double> gravity(c.mgl, c.com, c.up);
   // Effects are validated here too, before any row is written.
   const ViscousDamping<double> damping(c.damping);

@@ -5,10 +5,7 @@
 # finish; a bad file (or a flag that contradicts it) gives exit 2, one line, no rows.
 set -u
 sim="$1"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fails=0
-check() { if eval "$2"; then echo "ok   $1"; else echo "FAIL $1"; fails=$((fails + 1)); fi; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 header='member,t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations,status'
 
 cat >"$tmp/members.csv" <<'CSV'

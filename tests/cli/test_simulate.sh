@@ -4,10 +4,7 @@
 # up to the last good state, stderr names t and the reason).
 set -u
 sim="$1"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fails=0
-check() { if eval "$2"; then echo "ok   $1"; else echo "FAIL $1"; fails=$((fails + 1)); fi; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 header='t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations'
 
 "$sim" --case ht1 --scheme simo-kappa --t-end 1 --every 100 >"$tmp/ok.csv" 2>"$tmp/ok.err"; rc=$?

@@ -15,7 +15,6 @@
 // monotone: [T11]), but on a symmetric top Ω₃ exactly (the third row of r is J₃w₃).
 #include <Eigen/Core>
 #include <cmath>
-#include <limits>
 
 #include "trompo/detail/damped_newton.hpp"
 #include "trompo/detail/end_torque.hpp"
@@ -194,8 +193,7 @@ struct LieGenAlpha {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
+    const Scalar tiny = detail::tiny_scale<Scalar>();
     StepReport<Scalar> rep;
     const GenAlphaMemory<Scalar> m = started_memory(scene, in, h, memory);
     if (!detail::all_finite(m.omega_rate) || !detail::all_finite(m.a)) {

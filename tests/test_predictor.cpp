@@ -64,21 +64,10 @@ Counts count_with_history(const Scheme& scheme, const cases::Case<SceneT>& c, do
 template <class Scheme, class SceneT>
 std::pair<double, double> drift(const Scheme& scheme, const cases::Case<SceneT>& c, double h, long n, bool trajectory) {
   const Stepper<Scheme, SceneT> stepper(scheme, c.scene);
-  auto traj = stepper.start(c.initial);
-  State<double> s = c.initial;
-  const double H0 = c.scene.energy(s), mu0 = c.scene.momentum_map(s);
-  double dH = 0, dmu = 0;
-  for (long i = 0; i < n; ++i) {
-    if (trajectory) {
-      REQUIRE(stepper.step(traj, h).ok());
-      s = traj.state();
-    } else {
-      REQUIRE(stepper.step(s, h).ok());
-    }
-    dH = std::max(dH, std::abs(c.scene.energy(s) - H0) / std::abs(H0));
-    dmu = std::max(dmu, std::abs(c.scene.momentum_map(s) - mu0) / std::abs(mu0));
-  }
-  return {dH, dmu};
+  const auto st = trajectory ? trompo_test::run(stepper, stepper.start(c.initial), h, n)
+                             : trompo_test::run(stepper, c.initial, h, n);
+  REQUIRE(st.failures == 0);
+  return {st.max_dH, st.max_dmu};
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import report_splitting  # noqa: E402  (the splitting family: its targets and plot styles)
+from report_common import crossing_cost  # noqa: E402  (shared with report_splitting)
 
 # Targets of the issue (benchmarks, not tests).
 STEP_RATIO_TARGET = 2.0      # Simo-kappa step on HT1 at h = 1e-3 vs our RK4 step
@@ -206,24 +207,6 @@ def step_target(steps):
         "ratio": k["ns"] / r["ns"], "ratio_odeint": k["ns"] / o["ns"] if o else None,
         "newton": k["newton_mean"],
     }
-
-
-def crossing_cost(rows, ratio):
-    """CPU time at which one method's line first reaches ratio(r) <= 1, interpolated
-    log-log between the two grid points around the crossing (the grid is coarse: √2 in h,
-    half a decade in tolerance), or None."""
-    rows = sorted(rows, key=lambda r: r["cpu_ms"])
-    for j, r in enumerate(rows):
-        if ratio(r) <= 1:
-            if j == 0:
-                return r["cpu_ms"]
-            a, b = rows[j - 1], r
-            fa, fb = math.log(ratio(a)), math.log(max(ratio(b), 1e-300))
-            if fa <= fb:
-                return b["cpu_ms"]
-            w = fa / (fa - fb)
-            return math.exp(math.log(a["cpu_ms"]) + w * (math.log(b["cpu_ms"]) - math.log(a["cpu_ms"])))
-    return None
 
 
 def family_crossing(rows, pred):

@@ -11,8 +11,9 @@ projection) that reaches it; in brackets, the same with both sides interpolated 
 between the grid points around the bound (the grids are coarse: √2 in h, half a decade in
 tolerance).
 """
-import math
 import os
+
+from report_common import crossing_cost
 
 SCHEMES = ("splitting", "splitting-projected")
 METHOD_COLORS = {
@@ -64,22 +65,6 @@ def _cheapest(rows, pred):
     return min(good, key=lambda r: r["cpu_ms"]) if good else None
 
 
-def _crossing(rows, ratio):
-    """CPU time where a method's line first gets ratio(r) <= 1, interpolated log-log."""
-    rows = sorted(rows, key=lambda r: r["cpu_ms"])
-    for j, r in enumerate(rows):
-        if ratio(r) <= 1:
-            if j == 0:
-                return r["cpu_ms"]
-            a, b = rows[j - 1], r
-            fa, fb = math.log(max(ratio(a), 1e-300)), math.log(max(ratio(b), 1e-300))
-            if fa <= fb:
-                return b["cpu_ms"]
-            w = fa / (fa - fb)
-            return math.exp(math.log(a["cpu_ms"]) + w * (math.log(b["cpu_ms"]) - math.log(a["cpu_ms"])))
-    return None
-
-
 def _family_crossing(rows, pred, ratio):
     by = {}
     for r in rows:
@@ -87,7 +72,7 @@ def _family_crossing(rows, pred, ratio):
             by.setdefault(r["method"], []).append(r)
     best = None
     for m, rs in by.items():
-        c = _crossing(rs, ratio)
+        c = crossing_cost(rs, ratio)
         if c is not None and (best is None or c < best[0]):
             best = (c, m)
     return best

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include <algorithm>
+#include <iterator>
 #include <limits>
 #include <type_traits>
 
@@ -169,6 +170,15 @@ inline void apply_case(const std::string& name, Config& c) {
   else throw invalid_input("--case: unknown case '" + name + "' (ht0, ht1, ht2, fb1, fb2)");
 }
 
+/// Whether `name` is a --scheme the CLI runs.
+inline bool known_scheme(const std::string& name) {
+  static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
+                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
+                                        "splitting",       "lie-gen-alpha",         "constrained-trapezoid",
+                                        "energy-decaying"};
+  return std::any_of(std::begin(schemes), std::end(schemes), [&](const char* s) { return name == s; });
+}
+
 /// The flags (name with its "--" → value) as a Config, with the CLI's checks and messages.
 /// trompo-simulate's parse() and the Python module (python/trompo_module.cpp) both come here.
 inline Config parse_flags(const std::map<std::string, std::string>& flags) {
@@ -250,6 +260,9 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     }
     else throw invalid_input("unknown option '" + flag + "' (see --help)");
   }
+  // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
+  // checks name the scheme they need, which misleads when the name itself is a typo.
+  if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
   if (!c.have_inertia) throw invalid_input("--inertia: required (or give --case)");
   if (!c.dt) throw invalid_input("--dt: required (or give --case)");
   if (!c.t_end) throw invalid_input("--t-end: required (or give --case)");
@@ -305,15 +318,20 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
                           " contradicts --composition blanes-casas-murua-13 (order 6)");
     c.order = 6;
   }
+  // The flag that asked for a composition, as the messages below name it.
+  const std::string composed_by = c.composition ? "--composition " + std::string(trompo::to_string(*c.composition))
+                                  : c.processed ? std::string("--composition blanes-casas-murua-13")
+                                                : std::string("--order");
   // ---- families: not composed by the CLI ----
   const bool family = c.scheme == "lie-gen-alpha" || c.scheme == "constrained-trapezoid" || c.scheme == "energy-decaying";
   if (family && c.order != 2)
-    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
+    throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
                         " is not composed by the CLI");
   if (c.order != 2 && (c.scheme == "rk4" || c.scheme == "exact"))
-    throw invalid_input("--order: " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " + c.scheme);
+    throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric implicit scheme, not " +
+                        c.scheme);
   if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
-    throw invalid_input("--order: simo-alpha is symmetric only for alpha = 0.5");
+    throw invalid_input(composed_by + ": simo-alpha is symmetric only for alpha = 0.5");
   if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
   if (!c.ensemble.empty())
     for (const char* f : {"--rotation", "--omega", "--every"})
@@ -564,6 +582,27 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
 
 // ---- the checks and the scenes (formerly main's body) ----------------------------------
 
+/// Calls f(scene) with the scene simulate() runs for `body` and weight `mgl`. The library
+/// compiles in exactly the effects a scene names; the CLI keeps three scenes: the free body
+/// (mgl 0: no torque computed at all), the heavy top, and, when any of
+/// --damping/--torque/--space-torque/--rotor is given, a scene with all of them (those not
+/// given are zero) to keep the number of compiled variants small. `heavy`: a heavy top even
+/// at mgl 0 (an ensemble whose members carry their own mgl). simulate(), validate() and
+/// validate_member() all choose here, so that a check sees the scene that runs.
+template <class F>
+decltype(auto) with_scene_of(const Config& c, const trompo::RigidBody<double>& body, double mgl, bool heavy, F&& f) {
+  using namespace trompo;
+  const UniformGravity<double> gravity(mgl, c.com, c.up);
+  if (c.have_effects)
+    return f(Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
+                   ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, ViscousDamping<double>(c.damping),
+                                                               ConstantBodyTorque<double>(c.body_torque),
+                                                               ConstantSpaceTorque<double>(c.space_torque),
+                                                               Rotor<double>(c.rotor)));
+  if (mgl == 0 && !heavy) return f(FreeScene<double>(body));
+  return f(HeavyTop<double>(body, gravity));
+}
+
 /// Everything trompo-simulate checks before it writes anything; throws invalid_input.
 inline void validate(const Config& c) {
   using namespace trompo;
@@ -574,13 +613,7 @@ inline void validate(const Config& c) {
   s0.omega = c.omega;
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
-  static const char* const schemes[] = {"simo-alpha",      "simo-collocation",      "simo-kappa",
-                                        "geradin-bauchau", "geradin-bauchau-paper", "rk4", "exact",
-                                        "splitting",       "lie-gen-alpha",         "constrained-trapezoid",
-                                        "energy-decaying"};
-  bool known = false;
-  for (const char* name : schemes) known = known || c.scheme == name;
-  if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+  if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
   const UniformGravity<double> gravity(c.mgl, c.com, c.up);
   // Effects are validated here too, before any row is written.
   const ViscousDamping<double> damping(c.damping);
@@ -588,15 +621,10 @@ inline void validate(const Config& c) {
   const ConstantSpaceTorque<double> space_torque(c.space_torque);
   const Rotor<double> rotor(c.rotor);
   (void)gravity, (void)damping, (void)body_torque, (void)space_torque, (void)rotor;
-  // ---- splitting: method and projection against the scene, before any output ----
-  if (c.scheme == "splitting") {
-    if (c.have_effects)
-      check_splitting(c, Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
-                                ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, damping, body_torque,
-                                                                            space_torque, rotor));
-    else if (c.mgl == 0) check_splitting(c, FreeScene<double>(body));
-    else check_splitting(c, HeavyTop<double>(body, gravity));
-  }
+  // ---- splitting: method and projection against the scene, before any output (an
+  // ensemble's members are checked again on their own scenes: validate_member) ----
+  if (c.scheme == "splitting")
+    with_scene_of(c, body, c.mgl, false, [&](const auto& scene) { check_splitting(c, scene); });
   if (c.scheme == "exact" && !c.ensemble.empty())
     throw invalid_input("--ensemble: not with --scheme exact (the closed forms run one top at a time)");
   if (c.scheme == "exact" && c.have_effects)
@@ -624,27 +652,11 @@ int simulate(const Config& c, Out& out) {
   State<double> s0;
   s0.rotation = SO3d::exp(c.rotation);
   s0.omega = c.omega;
-  const UniformGravity<double> gravity(c.mgl, c.com, c.up);
-  const ViscousDamping<double> damping(c.damping);
-  const ConstantBodyTorque<double> body_torque(c.body_torque);
-  const ConstantSpaceTorque<double> space_torque(c.space_torque);
-  const Rotor<double> rotor(c.rotor);
-  int code = 0;
-  // Scenes: the library compiles in exactly the effects a scene names. The CLI keeps
-  // three: the free body (no torque computed at all), the heavy top, and, when any of
-  // --damping/--torque/--space-torque/--rotor is given, a scene with all of them (those
-  // not given are zero) to keep the number of compiled variants small. An ensemble with
-  // a per-member mgl is a heavy top even where a member's mgl is 0.
-  if (c.scheme == "exact") code = run_exact(c, body, s0, out);
-  else if (c.have_effects)
-    code = dispatch_scheme(c,
-                           Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
-                                 ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, damping, body_torque,
-                                                                             space_torque, rotor),
-                           s0, out);
-  else if (c.mgl == 0 && !member_weights(out)) code = dispatch_scheme(c, FreeScene<double>(body), s0, out);
-  else code = dispatch_scheme(c, HeavyTop<double>(body, gravity), s0, out);
-  return code;
+  if (c.scheme == "exact") return run_exact(c, body, s0, out);
+  // The scene of with_scene_of; an ensemble with a per-member mgl is a heavy top even
+  // where a member's mgl is 0.
+  return with_scene_of(c, body, c.mgl, member_weights(out),
+                       [&](const auto& scene) { return dispatch_scheme(c, scene, s0, out); });
 }
 
 // ---- ensembles ---------------------------------------------------------------------------
@@ -705,8 +717,9 @@ SceneT member_scene(const Config& c, const EnsembleInput& in, std::size_t i) {
   }
 }
 
-/// Checks member i (finite numbers, a rigid body's inertia, a valid weight); throws
-/// invalid_input naming the field.
+/// Checks member i (finite numbers, a rigid body's inertia, a valid weight, and for
+/// --scheme splitting the method on the member's own scene, of the type simulate() runs);
+/// throws invalid_input naming the field.
 inline void validate_member(const Config& c, const EnsembleInput& in, std::size_t i) {
   using namespace trompo;
   State<double> s;
@@ -714,22 +727,36 @@ inline void validate_member(const Config& c, const EnsembleInput& in, std::size_
   s.omega = in.omega[i];
   s.validate();
   const RigidBody<double> body = member_body(c, in, i);
-  const UniformGravity<double> gravity(in.mgl.empty() ? c.mgl : in.mgl[i], c.com, c.up);
-  (void)body, (void)gravity;
+  const double mgl = in.mgl.empty() ? c.mgl : in.mgl[i];
+  const UniformGravity<double> gravity(mgl, c.com, c.up);
+  (void)gravity;
+  if (c.scheme == "splitting")
+    with_scene_of(c, body, mgl, !in.mgl.empty(), [&](const auto& scene) { check_splitting(c, scene); });
 }
 
-/// The same stepper on another scene of the same type.
+/// The same stepper on member i's scene (of the same type).
 template <class Scheme, class SceneT>
-trompo::Stepper<Scheme, SceneT> with_scene(const trompo::Stepper<Scheme, SceneT>& st, SceneT scene) {
+trompo::Stepper<Scheme, SceneT> with_scene(const Config&, const trompo::Stepper<Scheme, SceneT>& st, SceneT scene) {
   return trompo::Stepper<Scheme, SceneT>(st.scheme(), std::move(scene), st.options());
 }
 template <class Scheme, class SceneT>
-trompo::ComposedStepper<Scheme, SceneT> with_scene(const trompo::ComposedStepper<Scheme, SceneT>& st, SceneT scene) {
+trompo::ComposedStepper<Scheme, SceneT> with_scene(const Config&, const trompo::ComposedStepper<Scheme, SceneT>& st,
+                                                   SceneT scene) {
   return trompo::ComposedStepper<Scheme, SceneT>(st.scheme(), std::move(scene), st.method(), st.options());
 }
 template <class Scheme, class SceneT>
-trompo::ProcessedStepper<Scheme, SceneT> with_scene(const trompo::ProcessedStepper<Scheme, SceneT>& st, SceneT scene) {
+trompo::ProcessedStepper<Scheme, SceneT> with_scene(const Config&, const trompo::ProcessedStepper<Scheme, SceneT>& st,
+                                                    SceneT scene) {
   return trompo::ProcessedStepper<Scheme, SceneT>(st.scheme(), std::move(scene), st.options());
+}
+/// A splitting stepper on member i's scene: the method of --composition, or the default of
+/// --order chosen for this member's body (Chin where its free flow is exact), as the single
+/// run with the member's --inertia chooses it, not for the Config's body.
+template <bool EnergyProjection, class SceneT>
+trompo::Stepper<trompo::SplittingScheme<EnergyProjection>, SceneT> with_scene(
+    const Config& c, const trompo::Stepper<trompo::SplittingScheme<EnergyProjection>, SceneT>& st, SceneT scene) {
+  const trompo::SplittingScheme<EnergyProjection> scheme(splitting_method(c, scene));
+  return trompo::Stepper<trompo::SplittingScheme<EnergyProjection>, SceneT>(scheme, std::move(scene), st.options());
 }
 
 /// The ensemble counterpart of run(): every member from t = 0 to t_end by integrate_ensemble
@@ -750,7 +777,7 @@ int run(const StepperT& stepper, const Config& c, const trompo::State<double>&, 
     e.summaries = trompo::integrate_ensemble(stepper, e.states, *c.t_end, *c.dt, options);
   } else {
     steppers.reserve(n);
-    for (std::size_t i = 0; i < n; ++i) steppers.push_back(with_scene(stepper, member_scene<SceneT>(c, in, i)));
+    for (std::size_t i = 0; i < n; ++i) steppers.push_back(with_scene(c, stepper, member_scene<SceneT>(c, in, i)));
     e.summaries = trompo::integrate_ensemble(steppers, e.states, *c.t_end, *c.dt, options);
   }
   const V3 up = c.up.normalized();

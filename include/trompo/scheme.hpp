@@ -20,10 +20,14 @@
 //   bool is_symmetric() const;                  // the run-time refinement of `symmetric`
 //   int order_of_accuracy() const;              // the run-time refinement of `order`
 //   template <class Scene> Keeps kept() const;  // the run-time refinement of `keeps`
+//   void validate() const;                      // throws invalid_input for a bad parameter
 //
 // The run-time refinements are for families whose parameters change a property: Simo-α is
 // symmetric and of order 2 only for α = ½. Read the properties through trompo::symmetric,
 // trompo::order_of_accuracy and trompo::keeps, which fall back on the static traits.
+// A scheme's parameters are public fields (SimoAlpha{}.alpha, LieGenAlpha{}.rho_inf), so a
+// value set after construction is checked again where it is used: the Stepper's
+// constructor (and so ComposedStepper's) calls trompo::validate_scheme, i.e. validate().
 //
 // The step contract. `step` reads `in` and the memory and writes `out` and the memory;
 // its report says whether the step is good. It may leave `out` and `memory` in any state
@@ -133,6 +137,13 @@ template <class Scene, class S>
 constexpr Keeps keeps(const S& scheme) {
   if constexpr (requires { scheme.template kept<Scene>(); }) return scheme.template kept<Scene>();
   else return S::template keeps<Scene>;
+}
+
+/// Throws invalid_input if a parameter of `scheme` is out of range (its validate());
+/// a scheme without validate() has nothing to check. Stepper's constructor calls it.
+template <class S>
+void validate_scheme(const S& scheme) {
+  if constexpr (requires { scheme.validate(); }) scheme.validate();
 }
 
 /// A state and the memory its scheme carries along it. For a memoryless scheme this is

@@ -38,9 +38,13 @@ class Stepper {
   /// What this stepper steps: the State itself for a memoryless scheme.
   using TrajectoryType = Trajectory<Scalar, Memory>;
 
-  /// The scheme, the scene and the Newton options of every step.
+  /// The scheme, the scene and the Newton options of every step. Throws invalid_input if a
+  /// parameter of the scheme is out of range (validate_scheme: a field set after the
+  /// scheme's construction, e.g. LieGenAlpha::rho_inf = 2, is caught here).
   explicit Stepper(Scheme scheme, Scene scene, NewtonOptions<Scalar> options = {})
-      : scheme_(scheme), scene_(std::move(scene)), options_(options) {}
+      : scheme_(scheme), scene_(std::move(scene)), options_(options) {
+    validate_scheme(scheme_);
+  }
 
   /// A trajectory starting at `s`, with fresh memory.
   TrajectoryType start(const State<Scalar>& s) const { return TrajectoryType(s); }

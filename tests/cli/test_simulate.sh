@@ -4,10 +4,7 @@
 # up to the last good state, stderr names t and the reason).
 set -u
 sim="$1"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fails=0
-check() { if eval "$2"; then echo "ok   $1"; else echo "FAIL $1"; fails=$((fails + 1)); fi; }
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 header='t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations'
 
 "$sim" --case ht1 --scheme simo-kappa --t-end 1 --every 100 >"$tmp/ok.csv" 2>"$tmp/ok.err"; rc=$?
@@ -32,6 +29,21 @@ for bad in "--case ht1 --inertia 1,1,5" "--case ht1 --dt 0" "--case ht1 --dt nan
            "--case ht1 --order 6 --composition suzuki-5" "--case ht1 --scheme rk4 --composition kahan-li-9"; do
   "$sim" $bad >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
   check "exit 2, no rows, one-line reason: $bad" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ]'
+done
+
+# The message names the flag at fault: an unknown scheme before the flags that need a
+# particular one, and the flag that asked for the composition.
+for bad in "--case ht1 --scheme simo-alfa --alpha 0.3:--scheme: unknown scheme 'simo-alfa'" \
+           "--case ht1 --scheme lie-gen-alfa --rho-inf 0.5:--scheme: unknown scheme 'lie-gen-alfa'" \
+           "--case ht1 --scheme energy-decay --chi 0.1:--scheme: unknown scheme 'energy-decay'" \
+           "--case ht1 --scheme lie-gen-alpha --composition triple-jump:--composition triple-jump: order 4" \
+           "--case ht1 --scheme energy-decaying --composition kahan-li-17:--composition kahan-li-17: order 8" \
+           "--case ht1 --scheme rk4 --composition suzuki-5:--composition suzuki-5: order 4" \
+           "--case ht1 --scheme lie-gen-alpha --order 4:--order: order 4"; do
+  flags=${bad%%:*}; want=${bad#*:}
+  "$sim" $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "exit 2, one line naming the flag: $flags ($want)" \
+    '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ] && grep -qF -- "$want" "$tmp/bad.err"'
 done
 
 # ---- splitting (--scheme splitting) ----

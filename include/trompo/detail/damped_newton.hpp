@@ -34,6 +34,13 @@
 
 namespace trompo::detail {
 
+/// min/ε: added to a row weight or a scale that may be zero (a body at rest, a zero
+/// increment) so that nothing divides by zero, yet far below any scale a step has.
+template <class Scalar>
+constexpr Scalar tiny_scale() {
+  return std::numeric_limits<Scalar>::min() / std::numeric_limits<Scalar>::epsilon();
+}
+
 /// Solves R(x) = 0 from x. `eval(x, R, K)` fills R and, if K is not null, the tangent
 /// ∂R/∂x; it returns false if x is outside the scheme's domain. `W` are the row weights
 /// (positive), `x_scale` the size against which a correction is judged. On success
@@ -45,8 +52,7 @@ StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, co
   using VectorN = Eigen::Matrix<Scalar, N, 1>;
   using MatrixN = Eigen::Matrix<Scalar, N, N>;
   constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
-  const Scalar size = x_scale + tiny;
+  const Scalar size = x_scale + tiny_scale<Scalar>();
   StepReport<Scalar> rep;
   VectorN R, R_trial, x_trial;
   MatrixN K, K_trial;

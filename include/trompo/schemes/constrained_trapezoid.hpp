@@ -15,7 +15,6 @@
 // is not an invariant to enforce).
 #include <Eigen/Core>
 #include <cmath>
-#include <limits>
 
 #include "trompo/detail/damped_newton.hpp"
 #include "trompo/detail/end_torque.hpp"
@@ -151,8 +150,7 @@ struct ConstrainedTrapezoid {
     using Vector4 = Eigen::Matrix<Scalar, 4, 1>;
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
     using Matrix4 = Eigen::Matrix<Scalar, 4, 4>;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
+    const Scalar tiny = detail::tiny_scale<Scalar>();
     const detail::StepData<Scene> d(scene, in, h);
     const Residual<Scene> res(d);
     const bool resume = memory.started && memory.h == h;

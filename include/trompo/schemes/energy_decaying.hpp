@@ -22,7 +22,6 @@
 // conservative scenes), potentials linear in Λ (the closed form of τ̄).
 #include <Eigen/Core>
 #include <cmath>
-#include <limits>
 
 #include "trompo/detail/damped_newton.hpp"
 #include "trompo/detail/lie_kit.hpp"
@@ -73,8 +72,11 @@ struct EnergyDecaying {
 
   EnergyDecaying() = default;
   /// Throws invalid_input unless 0 ≤ χ ≤ 1.
-  explicit EnergyDecaying(double x, ChiSchedule s = ChiSchedule::constant) : chi(x), schedule(s) {
-    if (!(x >= 0.0 && x <= 1.0)) detail::fail("energy-decaying: chi must be in [0, 1], got ", x);
+  explicit EnergyDecaying(double x, ChiSchedule s = ChiSchedule::constant) : chi(x), schedule(s) { validate(); }
+
+  /// Throws invalid_input unless 0 ≤ χ ≤ 1 (Stepper calls it: chi is a public field).
+  void validate() const {
+    if (!(chi >= 0.0 && chi <= 1.0)) detail::fail("energy-decaying: chi must be in [0, 1], got ", chi);
   }
 
   /// Symmetric only without dissipation.
@@ -176,8 +178,7 @@ struct EnergyDecaying {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
+    const Scalar tiny = detail::tiny_scale<Scalar>();
     const bool resume = memory.steps > 0 && memory.h == h;
     const Scalar c = dissipation(memory, h);
     const detail::StepData<Scene> d(scene, in, h);

@@ -15,7 +15,6 @@
 // monotone: [T11]), but on a symmetric top Ω₃ exactly (the third row of r is J₃w₃).
 #include <Eigen/Core>
 #include <cmath>
-#include <limits>
 
 #include "trompo/detail/damped_newton.hpp"
 #include "trompo/detail/end_torque.hpp"
@@ -62,8 +61,11 @@ struct LieGenAlpha {
 
   LieGenAlpha() = default;
   /// Throws invalid_input unless 0 ≤ ρ∞ ≤ 1.
-  explicit LieGenAlpha(double rho, Start s = Start::plain) : rho_inf(rho), start(s) {
-    if (!(rho >= 0.0 && rho <= 1.0)) detail::fail("lie-gen-alpha: rho_inf must be in [0, 1], got ", rho);
+  explicit LieGenAlpha(double rho, Start s = Start::plain) : rho_inf(rho), start(s) { validate(); }
+
+  /// Throws invalid_input unless 0 ≤ ρ∞ ≤ 1 (Stepper calls it: rho_inf is a public field).
+  void validate() const {
+    if (!(rho_inf >= 0.0 && rho_inf <= 1.0)) detail::fail("lie-gen-alpha: rho_inf must be in [0, 1], got ", rho_inf);
   }
 
   /// The coefficients of [T7] (Chung–Hulbert convention).
@@ -191,8 +193,7 @@ struct LieGenAlpha {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
+    const Scalar tiny = detail::tiny_scale<Scalar>();
     StepReport<Scalar> rep;
     const GenAlphaMemory<Scalar> m = started_memory(scene, in, h, memory);
     if (!detail::all_finite(m.omega_rate) || !detail::all_finite(m.a)) {

@@ -15,8 +15,11 @@ struct SimoAlpha {
   double alpha = 0.5;
   SimoAlpha() = default;
   /// Throws invalid_input unless α ∈ [0, 1].
-  explicit SimoAlpha(double a) : alpha(a) {
-    if (!(a >= 0.0 && a <= 1.0)) detail::fail("simo-alpha: alpha must be in [0, 1], got ", a);
+  explicit SimoAlpha(double a) : alpha(a) { validate(); }
+
+  /// Throws invalid_input unless α ∈ [0, 1] (Stepper calls it: alpha is a public field).
+  void validate() const {
+    if (!(alpha >= 0.0 && alpha <= 1.0)) detail::fail("simo-alpha: alpha must be in [0, 1], got ", alpha);
   }
 
   /// "simo-alpha".

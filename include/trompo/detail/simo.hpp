@@ -466,9 +466,10 @@ StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
     return rep.ok();
   };
   bool solved = false;
+  Vector3 extrapolated = Vector3::Zero();  // [P1] (from_history only), kept for the history's record
   if (from_history) {
     // [P1] the extrapolated increment, [P3] the carried tangent.
-    Theta0 = history->extrapolate();
+    Theta0 = extrapolated = history->extrapolate();
     y = Theta0 - base;
     K_inv = history->tangent_inverse;
     rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K, &K_inv, true);
@@ -489,9 +490,10 @@ StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
   out.rotation = in.rotation * SO3<Scalar>::exp(Theta);   // Λ_{n+1} = Λ_n exp(Θ̂)
   out.omega = in.omega + Scalar(2) * y / h;                // Ω_{n+1} = 2Θ/h − Ω_n  (9)
   out.time = in.time + h;
-  if (!all_finite(out.omega) || !all_finite(out.rotation.unit_quaternion().coeffs()))
-    rep.status = StepStatus::non_finite;
-  if (rep.ok() && history) history->record(Theta, h, K_inv);
+  // The step's one check of its result (the Stepper leaves it to the scheme:
+  // writes_memory_on_success, scheme.hpp), before the memory is written.
+  if (!committable(out)) rep.status = StepStatus::non_finite;
+  if (rep.ok() && history) history->record(Theta, h, K_inv, from_history ? &extrapolated : nullptr);
   return rep;
 }
 

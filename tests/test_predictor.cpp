@@ -258,3 +258,41 @@ TEST_CASE("history predictor: a failed step leaves state and memory bit-identica
   CHECK(m.count == b.count);
   CHECK(trompo_test::same_bits(traj.state(), before.state()));
 }
+
+TEST_CASE("history predictor: a composed step failing in a later sub-step leaves every sub-step's memory bit-identical",
+          "[predictor][robustness][composition]") {
+  // ComposedStepper steps each sub-step's memory in place and puts back the entries of
+  // the sub-steps already taken when a later one fails. The triple jump's long backward
+  // middle sub-step (−1.70 h) fails the branch rule (|Θ| ≥ 0.999π) at an h where the
+  // first (1.35 h) still succeeds, so entry 0 has been recorded when the step fails.
+  const auto ht1 = cases::ht1<double>();
+  const ComposedStepper<SimoKappa, cases::Top<double>> composed(SimoKappa{}, ht1.scene, Composition::triple_jump);
+  auto traj = composed.start(ht1.initial);
+  for (int i = 0; i < 10; ++i) REQUIRE(composed.step(traj, 1e-3).ok());
+  const double h = 2.1 / ht1.initial.omega.norm();  // |Θ| ≈ 2.8 (first), 3.6 (middle)
+  // Precondition: the first sub-step alone succeeds (so the failure is a later one's).
+  {
+    const Stepper<SimoKappa, cases::Top<double>> base(SimoKappa{}, ht1.scene);
+    auto probe = traj.memory[0];
+    State<double> s = traj.state();
+    REQUIRE(base.step(s, probe, composed.coefficients().gamma[0] * h).ok());
+  }
+  const auto before = traj;
+  const StepReport<double> rep = composed.step(traj, h);
+  REQUIRE_FALSE(rep.ok());
+  CHECK(std::memcmp(traj.omega.data(), before.omega.data(), sizeof(double) * 3) == 0);
+  CHECK(std::memcmp(traj.rotation.unit_quaternion().coeffs().data(), before.rotation.unit_quaternion().coeffs().data(),
+                    sizeof(double) * 4) == 0);
+  CHECK(traj.time == before.time);
+  for (std::size_t i = 0; i < traj.memory.size(); ++i) {
+    const auto& m = traj.memory[i];
+    const auto& b = before.memory[i];
+    CAPTURE(i);
+    for (std::size_t j = 0; j < m.increment.size(); ++j)
+      CHECK(std::memcmp(m.increment[j].data(), b.increment[j].data(), sizeof(double) * 3) == 0);
+    CHECK(std::memcmp(m.tangent_inverse.data(), b.tangent_inverse.data(), sizeof(double) * 9) == 0);
+    CHECK(std::memcmp(&m.h, &b.h, sizeof(double)) == 0);
+    CHECK(std::memcmp(&m.miss, &b.miss, sizeof(double)) == 0);
+    CHECK(m.count == b.count);
+  }
+}

@@ -156,9 +156,11 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// chord step with it. Everything else is as above, except that a chord step with the
 /// carried tangent must contract the residual by 10⁴× (not 10×), else a fresh tangent is
 /// evaluated there; acceptance is by the same rules. On
-/// success *carried (when given) receives the inverse of the tangent used last, for the
+/// success *carried (when given) holds the inverse of the tangent used last, for the
 /// next solve and for the fold rule (det K⁻¹ has the sign of det K); `tangent` receives
-/// the last evaluated K only if one was evaluated.
+/// the last evaluated K only if one was evaluated. *carried is the iteration's own inverse
+/// (not a copy), so on failure it may hold any inverse evaluated meanwhile; with
+/// `use_carried` false its value on entry is not read.
 template <class Scalar, class Eval>
 StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const NewtonOptions<Scalar>& opt,
                           Scalar x_scale, Eigen::Matrix<Scalar, 3, 3>* tangent = nullptr,
@@ -171,10 +173,12 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
   const Scalar size = x_scale + tiny;
   const bool reuse = opt.reuse_tangent > Scalar(0);
   Vector3 R;
-  Matrix3 K = Matrix3::Zero();      // tangent of the last full evaluation
-  Matrix3 K_inv = Matrix3::Zero();  // and its inverse
+  Matrix3 K = Matrix3::Zero();  // tangent of the last full evaluation
+  // and its inverse: the caller's *carried itself when given (read as the carried tangent,
+  // written by every inversion), which saves copying it in and out at every solve.
+  Matrix3 own_inverse = Matrix3::Zero();
+  Matrix3& K_inv = carried ? *carried : own_inverse;
   const bool start_carried = carried && use_carried && reuse;
-  if (start_carried) K_inv = *carried;
   bool evaluated_tangent = false;   // whether K holds a tangent evaluated in this solve
   Scalar scale(1);
   Scalar last_step = std::numeric_limits<Scalar>::infinity();
@@ -199,10 +203,9 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
     }
     return true;
   };
-  // On success: the tangent and the inverse used last, for the caller.
+  // On success: the tangent used last, for the caller (*carried already holds its inverse).
   const auto finish = [&]() {
     if (tangent && evaluated_tangent) *tangent = K;
-    if (carried) *carried = K_inv;
   };
   for (int k = 0;; ++k) {
     // Evaluation k; the correction it leads to is a chord step unless `fresh`.

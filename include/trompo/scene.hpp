@@ -127,6 +127,28 @@ class Scene {
     return tau;
   }
 
+  /// Σ conservative torques at Λ_n R for R = I + a x̂ + b x̂² (8), given by x and its
+  /// coefficients, in frame n. Effects with torque_rodrigues (gravity) rotate their body
+  /// vector without forming R; for the others R is formed once. Same value as
+  /// conservative_torque(c, SO3::rodrigues(x, a, b)) up to round-off.
+  Vector3 conservative_torque_rodrigues(const Caches& c, const Vector3& x, Scalar a, Scalar b) const {
+    Vector3 tau = Vector3::Zero();
+    [[maybe_unused]] Matrix3 R;
+    [[maybe_unused]] bool have_R = false;
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, potential_kind>) {
+        if constexpr (requires { e.torque_rodrigues(ce, x, a, b); }) {
+          tau += e.torque_rodrigues(ce, x, a, b);
+        } else {
+          if (!have_R) R = SO3<Scalar>::rodrigues(x, a, b);
+          have_R = true;
+          tau += e.torque(ce, R);
+        }
+      }
+    }, c);
+    return tau;
+  }
+
   /// Σ applied (non-conservative) torques at the mid configuration Λ_n R_mid and mid
   /// velocity, in frame n; optional Jacobians w.r.t. w (rotation) and Ω_m.
   Vector3 applied_torque(const Caches& c, const Matrix3& R_mid, const Vector3& omega_mid,

@@ -71,6 +71,19 @@ class SO3 {
     return SO3(Quaternion(c.cos_half, v.x(), v.y(), v.z()), NoCheck{});
   }
 
+  /// *this · exp(x̂), with c the half-angle pair of |x| (detail::half_angle or
+  /// half_angle_from_squared): a step's update Λ_{n+1} = Λ_n exp(Θ̂). The product of two
+  /// unit quaternions has |q|² = 1 + δ, δ = O(ε); it is renormalised by one Newton step
+  /// for 1/|q|, q ← q (3 − |q|²)/2, which leaves |q|² − 1 = O(δ²) + round-off, as
+  /// normalising by √|q|² does, without that square root and division on a stepper's
+  /// critical path. (For input quaternions use renormalized(), which also rescales.)
+  SO3 times_exp(const Vector3& x, const detail::HalfAngle<Scalar>& c) const {
+    const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
+    Quaternion q = q_ * Quaternion(c.cos_half, v.x(), v.y(), v.z());
+    q.coeffs() *= (Scalar(3) - q.squaredNorm()) / Scalar(2);
+    return SO3(q, NoCheck{});
+  }
+
   /// exp(x̂) = I + (sin θ/θ) x̂ + ((1−cos θ)/θ²) x̂², eq. (8), as a matrix (Rodrigues).
   static Matrix3 exp_matrix(const Vector3& x) {
     const detail::HalfAngle<Scalar> c = detail::half_angle(x.norm());

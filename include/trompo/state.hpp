@@ -1,6 +1,8 @@
 #pragma once
 // The state of a rotating body: attitude Λ (body → space), body angular velocity Ω, time.
 #include <Eigen/Core>
+#include <cmath>
+#include <limits>
 
 #include "trompo/errors.hpp"
 #include "trompo/so3.hpp"
@@ -25,5 +27,21 @@ struct State {
     if (!std::isfinite(static_cast<double>(time))) detail::fail("state: non-finite time ", time);
   }
 };
+
+namespace detail {
+/// Whether a step's result may be committed: finite Ω, quaternion and time, and a unit
+/// quaternion (to 16ε in |q|²). The last line of defence for "no NaN behind ok": the
+/// Stepper applies it to every scheme's result, or, for a scheme that writes its memory
+/// only on success (scheme.hpp, writes_memory_on_success), the scheme applies it itself
+/// before it records anything, and it is the step's only finiteness check of the result.
+template <class Scalar>
+bool committable(const State<Scalar>& s) {
+  using std::abs;
+  // |q|² − 1 ≤ 16ε is false for a NaN or infinite coefficient too: no separate test of q.
+  const Scalar q2 = s.rotation.unit_quaternion().squaredNorm();
+  return all_finite(s.omega) && std::isfinite(static_cast<double>(s.time)) &&
+         abs(q2 - Scalar(1)) <= Scalar(16) * std::numeric_limits<Scalar>::epsilon();
+}
+}  // namespace detail
 
 }  // namespace trompo

@@ -186,9 +186,10 @@ StepReport<typename Scene::Scalar> gb_step(const Scene& scene, const State<typen
   // [P2]: from the history only when it predicted the last step well (trusted).
   const bool from_history = history && history->trusted(h) && opt.reuse_tangent > Scalar(0);
   bool solved = false;
+  Vector3 extrapolated = Vector3::Zero();  // [P1] (from_history only), kept for the history's record
   if (from_history) {
     // [P1] the extrapolated e, [P3] the carried tangent; Θ⁰ (for the branch rule) from e⁰.
-    e0 = history->extrapolate();
+    e0 = extrapolated = history->extrapolate();
     if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
     const Scalar s0 = e0.norm();
     Theta0 = s0 > Scalar(0) ? Vector3(e0 * (Scalar(2) * std::asin(s0) / s0)) : Vector3(Scalar(2) * e0);
@@ -217,9 +218,10 @@ StepReport<typename Scene::Scalar> gb_step(const Scene& scene, const State<typen
   out.rotation = in.rotation * SO3<Scalar>::renormalized(q);
   out.omega = in.omega + Scalar(4) * z / h;                    // Ω_{n+1} = 4e/h − Ω_n (38)
   out.time = in.time + h;
-  if (!all_finite(out.omega) || !all_finite(out.rotation.unit_quaternion().coeffs()))
-    rep.status = StepStatus::non_finite;
-  if (rep.ok() && history) history->record(e, h, K_inv);
+  // The step's one check of its result (the Stepper leaves it to the scheme:
+  // writes_memory_on_success, scheme.hpp), before the memory is written.
+  if (!committable(out)) rep.status = StepStatus::non_finite;
+  if (rep.ok() && history) history->record(e, h, K_inv, from_history ? &extrapolated : nullptr);
   return rep;
 }
 

@@ -72,9 +72,11 @@ struct IncrementHistory {
 
   /// Records the accepted increment `x` of a step of size `h_step` and the inverse
   /// tangent it was solved with; a different h starts the history afresh [P2].
-  void record(const Vector3& x, Scalar h_step, const Matrix3& K_inv) {
+  /// `extrapolated`, if given, is extrapolate() as the step computed it (for its
+  /// predictor), so that it is not computed twice.
+  void record(const Vector3& x, Scalar h_step, const Matrix3& K_inv, const Vector3* extrapolated = nullptr) {
     if (ready(h_step)) {
-      const Scalar size = x.norm(), off = (x - extrapolate()).norm();
+      const Scalar size = x.norm(), off = (x - (extrapolated ? *extrapolated : extrapolate())).norm();
       miss = size > Scalar(0) ? off / size : (off == Scalar(0) ? Scalar(0) : std::numeric_limits<Scalar>::infinity());
     } else {
       miss = std::numeric_limits<Scalar>::infinity();

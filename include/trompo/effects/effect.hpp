@@ -17,6 +17,10 @@
 //     Matrix3 torque_jacobian(const Cache&, const Matrix3& R) const;    // ∂torque/∂w
 //     static constexpr bool linear_in_rotation;  // V = tr(AΛ) + c: closed forms for the
 //                                                // Simo-κ factor (19) and α of [T2] hold
+//     optional:
+//     Vector3 torque_rodrigues(const Cache&, const Vector3& x, Scalar a, Scalar b) const;
+//                              // torque(R) for R = I + a x̂ + b x̂² (8), without forming R
+//                              // (gravity rotates one body vector: two cross products)
 //  torque_kind      (applied at the step's mid configuration and mid velocity, §5)
 //     Vector3 torque(const Cache&, const Matrix3& R_mid, const Vector3& omega_mid) const;
 //     Matrix3 torque_jacobian_rotation(const Cache&, const Matrix3& R_mid, const Vector3& omega_mid) const;

@@ -31,6 +31,9 @@ struct GeradinBauchau {
   using Memory = IncrementHistory<typename Scene::Scalar>;
   /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
   static constexpr bool memory_is_hint = true;
+  /// The step writes the memory only when it succeeds, after checking its result
+  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
+  static constexpr bool writes_memory_on_success = true;
 
   /// One step: Newton on [T4] from the predictor, then Λ_{n+1} = Λ_n ⊗ (e0, e).
   template <class Scene>

@@ -29,6 +29,9 @@ struct SimoKappa {
   using Memory = IncrementHistory<typename Scene::Scalar>;
   /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
   static constexpr bool memory_is_hint = true;
+  /// The step writes the memory only when it succeeds, after checking its result
+  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
+  static constexpr bool writes_memory_on_success = true;
 
   /// One step: Newton on [T1] with κ from (19), then (9)–(10).
   template <class Scene>

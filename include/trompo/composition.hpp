@@ -39,6 +39,7 @@
 // swinging body). H and μ stay exact either way. See tests/test_composition.cpp.
 #include <array>
 #include <cmath>
+#include <memory>  // std::construct_at, std::destroy_at (ComposedStepper::step)
 #include <type_traits>
 #include <utility>
 

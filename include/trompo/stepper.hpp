@@ -16,7 +16,6 @@
 // memory, exactly as they were. No heap allocation, no virtual call.
 #include <cmath>
 #include <limits>
-#include <memory>  // std::construct_at, std::destroy_at (for composition.hpp, which includes this header)
 #include <type_traits>
 
 #include "trompo/newton.hpp"

@@ -213,12 +213,32 @@ std::string with_splitting(const Scene& scene, const trompo::State<double>& s, R
 }
 // ---- end splitting --------------------------------------------------------------------------
 
+// ---- processed composition (processed_composition.hpp) --------------------------------------
+/// ProcessedStepper steps a Trajectory (its kernel state lives in the memory); exercise()
+/// steps a plain State, so this stepper carries the trajectory of the states it produced and
+/// starts a fresh one for any other state. integrate() gets the real Trajectory (start()) and
+/// so exercises the deferred output.
+template <class Scheme, class Scene>
+struct ProcessedStateStepper : trompo::ProcessedStepper<Scheme, Scene> {
+  using Base = trompo::ProcessedStepper<Scheme, Scene>;
+  using Base::Base;
+  using Base::step;
+  mutable typename Base::TrajectoryType traj{};
+  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
+    if (!same_bits(traj.state(), s)) traj = this->start(s);
+    const trompo::StepReport<double> rep = Base::step(traj, h);
+    if (rep.ok()) s = traj.state();
+    return rep;
+  }
+};
+// ---- end processed composition --------------------------------------------------------------
+
 template <class Scene>
 std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
   using namespace trompo;
   NewtonOptions<double> opt;
   if (in.byte() == 3) opt.max_iterations = static_cast<int>(in.choose(4));  // starved Newton
-  switch (in.choose(8)) {
+  switch (in.choose(9)) {
     case 0: return exercise(Stepper<SimoAlpha, Scene>(SimoAlpha{}, scene, opt), s, in, wild);
     case 1: {
       const double a = wild ? in.raw() : in.unit();
@@ -229,6 +249,9 @@ std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Read
     case 4: return exercise(Stepper<GeradinBauchau, Scene>(GeradinBauchau{}, scene, opt), s, in, wild);
     case 5: return exercise(Stepper<GeradinBauchauPaper, Scene>(GeradinBauchauPaper{}, scene, opt), s, in, wild);
     case 6: return exercise(Stepper<RK4, Scene>(RK4{}, scene, opt), s, in, wild);
+    case 7:  // the processed composition of Simo-κ or Géradin–Bauchau
+      if (in.byte() & 1) return exercise(ProcessedStateStepper<SimoKappa, Scene>(SimoKappa{}, scene, opt), s, in, wild);
+      return exercise(ProcessedStateStepper<GeradinBauchau, Scene>(GeradinBauchau{}, scene, opt), s, in, wild);
     default: return with_splitting(scene, s, in, wild);  // splitting
   }
 }

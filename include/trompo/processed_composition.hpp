@@ -33,11 +33,14 @@
 // is not composed further. Only symmetric bases are accepted (as for ComposedStepper).
 //
 // A base scheme with memory (the history predictor) gets one memory per kernel sub-step
-// index and one per post-processor sub-step index; the pre-processor starts from fresh
-// memories (it runs once).
+// index. The processors start every sub-step from fresh memory: an output is then a function
+// of the kernel state and h alone, so integrate()'s single deferred output is bit for bit
+// the output that step() gives after every step (and an ensemble member, run without an
+// observer, is bit for bit its single run with one).
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <utility>
 
 #include "trompo/errors.hpp"
@@ -96,8 +99,6 @@ struct ProcessedMemory {
   bool pending = false;
   /// One base memory per kernel sub-step index.
   std::array<BaseMemory, ProcessedCoefficients<Scalar>::kernel_stages> kernel_memory{};
-  /// One base memory per post-processor sub-step index.
-  std::array<BaseMemory, ProcessedCoefficients<Scalar>::processor_stages> output_memory{};
 };
 
 /// The processed order-6 composition of a symmetric order-2 scheme (docs/theory.md §13.5
@@ -156,6 +157,7 @@ class ProcessedStepper {
   /// observer wants the intermediate states. On failure nothing changes.
   StepReport<Scalar> advance(TrajectoryType& traj, Scalar h) const {
     Memory& mem = traj.memory;
+    h = primed_step(mem, h);
     if (mem.h == h && h != Scalar(0)) {  // primed for this h (a fresh memory has h = 0)
       // The common case: the kernel alone moves. It steps in place, with a backup of what
       // it changes (the kernel state and its 13 sub-step memories), restored on failure:
@@ -243,6 +245,16 @@ class ProcessedStepper {
     return total;
   }
 
+  /// The kernel's h for a step of size h: the primed one if h differs from it by the
+  /// rounding of the time grid only (integrate()'s last step, t_end − t_{n−1}, is h up to a
+  /// few ulps of t), so that such a step neither re-processes nor changes the output's bits;
+  /// else h itself.
+  static Scalar primed_step(const Memory& m, Scalar h) {
+    using std::abs;
+    const Scalar grid_rounding = Scalar(8) * std::numeric_limits<Scalar>::epsilon() * (abs(m.h) + abs(m.kernel.time));
+    return m.h != Scalar(0) && abs(h - m.h) <= grid_rounding ? m.h : h;
+  }
+
   /// Primes the kernel from the output x for step size h: y = P_h⁻¹(x) (fresh memories).
   StepReport<Scalar> pre_process(const State<Scalar>& x, Memory& m, Scalar h) const {
     // P_h⁻¹ = Φ_{−p_12 h} ∘ … ∘ Φ_{−p_1 h}: the steps −p_1 h, …, −p_12 h in turn [P5].
@@ -255,16 +267,16 @@ class ProcessedStepper {
     m.kernel = y;
     m.h = h;
     m.kernel_memory = {};
-    m.output_memory = {};
     return rep;
   }
 
-  /// x = P_h(kernel) at the kernel's time, with the post-processor's memories.
+  /// x = P_h(kernel) at the kernel's time, from fresh memories (see the file comment).
   StepReport<Scalar> post_process(Memory& m, State<Scalar>& x) const {
     // P_h = Φ_{p_1 h} ∘ … ∘ Φ_{p_12 h}: the steps p_12 h, …, p_1 h in turn [P5].
     x = m.kernel;
+    std::array<BaseMemory, Coefficients::processor_stages> fresh{};
     const StepReport<Scalar> rep = sequence(x, coefficients_.processor, true, m.h, m.kernel.time,
-                                            [&](std::size_t k) -> BaseMemory& { return m.output_memory[k]; });
+                                            [&](std::size_t k) -> BaseMemory& { return fresh[k]; });
     if (rep.ok()) m.pending = false;
     return rep;
   }
@@ -272,6 +284,7 @@ class ProcessedStepper {
   /// One kernel step of size h on the memory m, from the output x (which it updates if the
   /// processor must change: a new h, or a fresh memory).
   StepReport<Scalar> advance_kernel(State<Scalar>& x, Memory& m, Scalar h) const {
+    h = primed_step(m, h);
     StepReport<Scalar> total;
     if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
       total.status = StepStatus::invalid_step;

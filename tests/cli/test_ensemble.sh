@@ -31,6 +31,13 @@ done < <(grep -v -e '^#' -e '^rotation' "$tmp/members.csv")
 "$sim" --case ht1 --t-end 0.5 --ensemble "$tmp/members.csv" --threads 1 --csv "$tmp/e1.csv"; rc=$?
 check "--threads 1 and 2 write the same bytes (--csv)" '[ $rc -eq 0 ] && cmp -s "$tmp/e1.csv" "$tmp/e2.csv"'
 
+# The processed composition: members run without an observer (one post-processing at the
+# end), the single run post-processes every row; the output depends on the kernel alone.
+"$sim" --case ht1 --t-end 0.5 --composition blanes-casas-murua-13 --ensemble "$tmp/members.csv" >"$tmp/p6.csv"; rc=$?
+"$sim" --case ht1 --t-end 0.5 --composition blanes-casas-murua-13 --rotation 0.1,0,0 --omega 0,0,40 --mgl 25 >"$tmp/p6single.csv"
+check "blanes-casas-murua-13: member 1 = last row of its single run, bit for bit" \
+  '[ $rc -eq 0 ] && [ "$(sed -n 3p "$tmp/p6.csv" | cut -d, -f2-19)" = "$(tail -1 "$tmp/p6single.csv" | cut -d, -f1-18)" ]'
+
 # Per-member inertia, composed scheme.
 printf 'omega1,omega2,omega3,rotation1,rotation2,rotation3,J11,J22,J33\n0.01,2,0.01,0,0,0,1,2,3\n0.01,2,0.01,0,0,0,1,2,2.5\n' >"$tmp/fb.csv"
 "$sim" --case fb1 --t-end 2 --order 4 --ensemble "$tmp/fb.csv" >"$tmp/fb.out"; rc=$?

@@ -22,14 +22,14 @@
 #include <string>
 #include <vector>
 
-#include "trompo/cases.hpp"
-#include "trompo/composition.hpp"
-#include "trompo/processed_composition.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/geradin_bauchau_paper.hpp"
-#include "trompo/schemes/rk4.hpp"
-#include "trompo/schemes/simo.hpp"
-#include "trompo/stepper.hpp"
+#include "trompo/model/cases.hpp"
+#include "trompo/steppers/composition.hpp"
+#include "trompo/steppers/processed_composition.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/explicit/rk4.hpp"
+#include "trompo/schemes/simo/simo.hpp"
+#include "trompo/steppers/stepper.hpp"
 
 // The closed forms use Boost.Math's Carlson integrals, so they need Boost too.
 #if defined(TROMPO_HAVE_BOOST) && __has_include("trompo/exact/lagrange_top.hpp") && \

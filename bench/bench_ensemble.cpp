@@ -25,7 +25,7 @@
 #include <random>
 #include <vector>
 
-#include "trompo/ensemble.hpp"
+#include "trompo/drivers/ensemble.hpp"
 #include "trompo/trompo.hpp"
 
 namespace {

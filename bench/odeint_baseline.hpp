@@ -15,8 +15,8 @@
 #include <boost/numeric/odeint.hpp>
 #include <cstddef>
 
-#include "trompo/so3.hpp"
-#include "trompo/state.hpp"
+#include "trompo/lie/so3.hpp"
+#include "trompo/model/state.hpp"
 
 namespace trompo::bench {
 

@@ -11,15 +11,15 @@
 #include <limits>
 #include <string>
 
-#include "trompo/cases.hpp"
-#include "trompo/composition.hpp"
-#include "trompo/effects/uniform_gravity.hpp"
-#include "trompo/scene.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/geradin_bauchau_paper.hpp"
-#include "trompo/schemes/rk4.hpp"
-#include "trompo/schemes/simo.hpp"
-#include "trompo/stepper.hpp"
+#include "trompo/model/cases.hpp"
+#include "trompo/steppers/composition.hpp"
+#include "trompo/model/effects/uniform_gravity.hpp"
+#include "trompo/model/scene.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/explicit/rk4.hpp"
+#include "trompo/schemes/simo/simo.hpp"
+#include "trompo/steppers/stepper.hpp"
 
 using namespace trompo;
 using V3 = Eigen::Vector3d;

@@ -10,7 +10,7 @@
 
 #include "support/midpoint_scheme.hpp"
 #include "support/same_bits.hpp"
-#include "trompo/ensemble.hpp"
+#include "trompo/drivers/ensemble.hpp"
 #include "trompo/trompo.hpp"
 
 using namespace trompo;

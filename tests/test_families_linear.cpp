@@ -7,7 +7,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 
-#include "trompo/schemes/lie_gen_alpha.hpp"
+#include "trompo/schemes/families/lie_gen_alpha.hpp"
 
 namespace {
 

@@ -9,11 +9,11 @@
 #include <type_traits>
 
 #include "support/trompo_test.hpp"
-#include "trompo/cases.hpp"
-#include "trompo/effects/external_torque.hpp"
-#include "trompo/effects/potential.hpp"
-#include "trompo/effects/rotor.hpp"
-#include "trompo/effects/viscous_damping.hpp"
+#include "trompo/model/cases.hpp"
+#include "trompo/model/effects/external_torque.hpp"
+#include "trompo/model/effects/potential.hpp"
+#include "trompo/model/effects/rotor.hpp"
+#include "trompo/model/effects/viscous_damping.hpp"
 
 using namespace trompo;
 using trompo_test::Mat3;

@@ -9,8 +9,8 @@
 
 #include "support/same_bits.hpp"
 #include "support/trompo_test.hpp"
-#include "trompo/cases.hpp"
-#include "trompo/integrate.hpp"
+#include "trompo/model/cases.hpp"
+#include "trompo/drivers/integrate.hpp"
 
 using namespace trompo;
 using trompo_test::Mat3;

@@ -13,12 +13,12 @@
 #include <numeric>
 
 #include "support/same_bits.hpp"
-#include "trompo/cases.hpp"
-#include "trompo/composition.hpp"
-#include "trompo/integrate.hpp"
-#include "trompo/processed_composition.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/simo.hpp"
+#include "trompo/model/cases.hpp"
+#include "trompo/steppers/composition.hpp"
+#include "trompo/drivers/integrate.hpp"
+#include "trompo/steppers/processed_composition.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
+#include "trompo/schemes/simo/simo.hpp"
 
 using namespace trompo;
 using Top = cases::Top<double>;

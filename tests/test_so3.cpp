@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "support/trompo_test.hpp"
-#include "trompo/detail/series.hpp"
-#include "trompo/so3.hpp"
+#include "trompo/lie/series.hpp"
+#include "trompo/lie/so3.hpp"
 
 #ifdef TROMPO_HAVE_BOOST
 #include <boost/multiprecision/cpp_bin_float.hpp>

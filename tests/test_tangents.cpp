@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "support/trompo_test.hpp"
-#include "trompo/schemes/geradin_bauchau.hpp"
-#include "trompo/schemes/geradin_bauchau_paper.hpp"
-#include "trompo/schemes/simo.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
+#include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/simo/simo.hpp"
 
 #ifdef TROMPO_HAVE_BOOST
 #include <boost/multiprecision/cpp_bin_float.hpp>

@@ -9,10 +9,10 @@
 #include <string>
 
 #include "bench_common.hpp"
-#include "trompo/schemes/constrained_trapezoid.hpp"
-#include "trompo/schemes/energy_decaying.hpp"
-#include "trompo/schemes/lie_gen_alpha.hpp"
-#include "trompo/schemes/simo_kappa.hpp"
+#include "trompo/schemes/families/constrained_trapezoid.hpp"
+#include "trompo/schemes/families/energy_decaying.hpp"
+#include "trompo/schemes/families/lie_gen_alpha.hpp"
+#include "trompo/schemes/simo/simo_kappa.hpp"
 
 namespace {
 

@@ -14,7 +14,7 @@
 #include <string>
 
 #include "bench_common.hpp"
-#include "trompo/schemes/splitting.hpp"
+#include "trompo/schemes/splitting/splitting.hpp"
 
 namespace trompo_bench {
 namespace {

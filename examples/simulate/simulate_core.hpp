@@ -8,7 +8,7 @@
 //
 // Ensembles (--ensemble FILE, trompo.ensemble): the same dispatch with an EnsembleRun in
 // place of the sink; run() then integrates every member with trompo::integrate_ensemble
-// (include/trompo/ensemble.hpp) and keeps each member's final state.
+// (include/trompo/drivers/ensemble.hpp) and keeps each member's final state.
 //
 // Not part of the library (include/trompo): an application of it.
 #include <cerrno>
@@ -32,7 +32,7 @@
 #include "trompo/exact/free_body.hpp"
 #include "trompo/exact/lagrange_top.hpp"
 #endif
-#include "trompo/ensemble.hpp"
+#include "trompo/drivers/ensemble.hpp"
 #include "trompo/trompo.hpp"
 
 namespace trompo_simulate {

@@ -17,8 +17,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "trompo/scheme.hpp"
-#include "trompo/so3.hpp"
+#include "trompo/schemes/scheme.hpp"
+#include "trompo/lie/so3.hpp"
 
 namespace trompo_test {
 

@@ -4,7 +4,7 @@
 // its own copy: the fuzz build sees include/ only.)
 #include <cstring>
 
-#include "trompo/state.hpp"
+#include "trompo/model/state.hpp"
 
 namespace trompo_test {
 

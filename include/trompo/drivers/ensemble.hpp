@@ -1,0 +1,157 @@
+#pragma once
+// integrate_ensemble: N independent trajectories (a Monte-Carlo set of perturbed tops, a
+// parameter sweep) integrated across cores.
+//
+//   auto c = trompo::cases::ht1<double>();
+//   Stepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, c.scene);
+//   std::vector<State<double>> members(10000, c.initial);   // then perturb each
+//   auto summaries = integrate_ensemble(stepper, members, 1.0, 0.001);
+//   // members[i] is the final state of member i; summaries[i].ok() says whether it got there
+//
+// One stepper for all the members (same scene), or one per member (the same scene type
+// with per-member parameters: inertia, weight, …):
+//
+//   std::vector<Stepper<SimoKappa, HeavyTop<double>>> steppers;   // steppers[i] for members[i]
+//   integrate_ensemble(steppers, members, t_end, h, {.threads = 2});
+//
+// What a member gets. Member i is integrated by exactly `integrate(stepper_i, members[i],
+// t_end, h, NoObserver{}, options.integrate)` (integrate.hpp): same grid, same recovery
+// by sub-stepping, so its final state is bit-identical to that single run, whatever the
+// number of threads. Members never interact; a member whose step fails beyond recovery
+// stops at its last good state with its summary saying why, and the others go on.
+//
+// Threads. std::thread, not OpenMP: the library is header-only, and an OpenMP pragma
+// would make every program that includes it link GCC's libgomp (and build with
+// -fopenmp) or silently run serially; std::thread needs nothing beyond the C++ standard
+// library. The partition is static and deterministic: thread k takes the contiguous
+// block of members [k·N/T, (k+1)·N/T). Members of a sweep cost about the same, and the
+// result does not depend on the partition anyway (members are independent), so nothing
+// is gained by a work queue. Each member is integrated on a local copy of its state and
+// written back once at the end, so threads do not share cache lines while they step.
+//
+// Cost. The only allocations are the summaries and the threads, before any step; no
+// allocation per step (the Stepper's guarantee), no synchronisation between steps.
+//
+// Bad input throws invalid_input on the calling thread before any member is stepped:
+// h zero or not finite, t_end not finite, a member's state not finite or its t_end behind
+// its start, a stepper count that is neither 1 nor the member count.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <exception>
+#include <ranges>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "trompo/errors.hpp"
+#include "trompo/drivers/integrate.hpp"
+#include "trompo/model/state.hpp"
+
+namespace trompo {
+
+/// Controls of integrate_ensemble.
+struct EnsembleOptions {
+  /// Worker threads: 0 takes std::thread::hardware_concurrency(); never more than the
+  /// members. 1 integrates every member on the calling thread (no thread is started).
+  unsigned threads = 0;
+  /// Each member's recovery of failed steps, as for integrate().
+  IntegrateOptions integrate{};
+};
+
+/// The number of threads integrate_ensemble uses for `members` members when
+/// `requested` are asked for (0: the hardware's).
+inline unsigned ensemble_threads(std::size_t members, unsigned requested) {
+  unsigned t = requested ? requested : std::thread::hardware_concurrency();
+  if (t == 0) t = 1;
+  if (members < t) t = static_cast<unsigned>(members ? members : 1);
+  return t;
+}
+
+namespace detail {
+
+/// Runs member i for i in [0, n) with `stepper_of(i)`; see the file comment.
+template <class StepperOf, class States, class Scalar>
+std::vector<IntegrationSummary<Scalar>> run_ensemble(std::size_t n_steppers, StepperOf stepper_of, States& states,
+                                                     Scalar t_end, Scalar h, const EnsembleOptions& options) {
+  using std::isfinite;
+  const std::size_t n = std::ranges::size(states);
+  if (n_steppers != 1 && n_steppers != n)
+    fail("integrate_ensemble: ", n_steppers, " steppers for ", n, " members (give 1 or one per member)");
+  if (!isfinite(h) || h == Scalar(0)) fail("integrate_ensemble: time step h must be finite and non-zero, got ", h);
+  if (!isfinite(t_end)) fail("integrate_ensemble: end time t_end must be finite, got ", t_end);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& s = states[i];
+    try {
+      s.validate();
+    } catch (const invalid_input& e) {
+      fail("integrate_ensemble: member ", i, ": ", e.what());
+    }
+    const Scalar span = t_end - s.time;
+    if ((h > 0 && span < 0) || (h < 0 && span > 0))
+      fail("integrate_ensemble: member ", i, ": end time t_end = ", t_end, " is behind its start t0 = ", s.time,
+           " for the direction of h = ", h);
+  }
+
+  std::vector<IntegrationSummary<Scalar>> summaries(n);
+  std::vector<std::exception_ptr> errors(n);  // what integrate threw for a member (not expected after the checks)
+  auto block = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      try {
+        auto local = states[i];  // stepped privately, written back once
+        summaries[i] = integrate(stepper_of(i), local, t_end, h, NoObserver{}, options.integrate);
+        states[i] = local;
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+
+  const unsigned threads = ensemble_threads(n, options.threads);
+  if (threads <= 1) {
+    block(0, n);
+  } else {
+    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
+    std::vector<std::jthread> pool;
+    pool.reserve(threads - 1);
+    // Thread k takes [k·n/T, (k+1)·n/T); the calling thread takes block 0.
+    for (unsigned k = 1; k < threads; ++k)
+      pool.emplace_back(block, k * n / threads, (k + 1) * n / threads);
+    block(0, n / threads);
+    for (auto& t : pool) t.join();
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (errors[i]) std::rethrow_exception(errors[i]);
+  return summaries;
+}
+
+}  // namespace detail
+
+/// Integrates every state of `states` (a random-access range of State or Trajectory,
+/// updated in place) from its own time to t_end with steps h, all with one stepper
+/// (one scene). Returns one summary per member. See the file comment.
+template <class StepperT, std::ranges::random_access_range States>
+  requires(!std::ranges::range<StepperT>)
+std::vector<IntegrationSummary<typename StepperT::Scalar>> integrate_ensemble(const StepperT& stepper, States& states,
+                                                                               typename StepperT::Scalar t_end,
+                                                                               typename StepperT::Scalar h,
+                                                                               EnsembleOptions options = {}) {
+  return detail::run_ensemble(1, [&](std::size_t) -> const StepperT& { return stepper; }, states, t_end, h, options);
+}
+
+/// Integrates member i of `states` with steppers[i] (per-member scenes of one scene
+/// type: inertia, weight, effects), from its own time to t_end with steps h. The two
+/// ranges have the same size. Returns one summary per member. See the file comment.
+template <std::ranges::random_access_range Steppers, std::ranges::random_access_range States>
+std::vector<IntegrationSummary<typename std::ranges::range_value_t<Steppers>::Scalar>> integrate_ensemble(
+    const Steppers& steppers, States& states, typename std::ranges::range_value_t<Steppers>::Scalar t_end,
+    typename std::ranges::range_value_t<Steppers>::Scalar h, EnsembleOptions options = {}) {
+  const std::size_t n = std::ranges::size(steppers);
+  if (n != std::ranges::size(states))
+    detail::fail("integrate_ensemble: ", n, " steppers for ", std::ranges::size(states), " members (give one per member)");
+  return detail::run_ensemble(
+      n, [&](std::size_t i) -> const std::ranges::range_value_t<Steppers>& { return steppers[i]; }, states, t_end, h,
+      options);
+}
+
+}  // namespace trompo

@@ -1,0 +1,219 @@
+#pragma once
+// Scene<Scalar, Effects...>: a rigid body and the effects acting on it, fixed at compile
+// time. The stepper's energy, torque and tangent are assembled from exactly the listed
+// effects by fold expressions: an effect the scene does not name costs nothing.
+#include <Eigen/Core>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+
+#include "trompo/model/body.hpp"
+#include "trompo/model/effects/effect.hpp"
+#include "trompo/model/state.hpp"
+
+namespace trompo {
+
+namespace detail {
+/// True unless E is a potential that is not linear in Λ.
+template <class E>
+constexpr bool linear_or_not_potential() {
+  if constexpr (std::is_same_v<typename E::kind, potential_kind>) return E::linear_in_rotation;
+  else return true;
+}
+}  // namespace detail
+
+/// A rigid body and the effects acting on it, fixed at compile time: energy, momenta, torques
+/// and their Jacobians are assembled from exactly the listed effects (docs/design.md).
+template <class Scalar_, class... Effects>
+class Scene {
+ public:
+  /// The scalar type.
+  using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// The per-step caches of the effects, one per effect.
+  using Caches = std::tuple<typename Effects::Cache...>;
+
+  /// Whether effect E is of the given kind (potential_kind, torque_kind, rotor_kind).
+  template <class E, class Kind>
+  static constexpr bool is_kind = std::is_same_v<typename E::kind, Kind>;
+
+  /// Some effect is a potential (enters H).
+  static constexpr bool has_potential = (is_kind<Effects, potential_kind> || ...);
+  /// Some effect is an applied torque.
+  static constexpr bool has_applied_torque = (is_kind<Effects, torque_kind> || ...);
+  /// Some effect is a rotor.
+  static constexpr bool has_rotor = (is_kind<Effects, rotor_kind> || ...);
+  /// Every potential is linear in Λ: the closed forms of Simo-κ (19) and [T2] apply.
+  static constexpr bool potentials_linear = (detail::linear_or_not_potential<Effects>() && ...);
+  /// No effect at all: the free body; its step computes no torque.
+  static constexpr bool is_free = sizeof...(Effects) == 0;
+
+  /// The body and one value of each listed effect, in order.
+  explicit Scene(RigidBody<Scalar> body, Effects... effects)
+      : body_(std::move(body)), effects_(std::move(effects)...) {}
+
+  /// The rigid body.
+  const RigidBody<Scalar>& body() const { return body_; }
+  /// The effects, in the order listed.
+  const std::tuple<Effects...>& effects() const { return effects_; }
+  /// The effect of type E.
+  template <class E>
+  const E& effect() const { return std::get<E>(effects_); }
+
+  /// Axis of the momentum map μ = γ·Λ(JΩ + h_r): the up vector of the first effect
+  /// that has one (gravity), else e3.
+  Vector3 momentum_axis() const {
+    Vector3 axis = Vector3::UnitZ();
+    bool found = false;
+    std::apply([&](const auto&... e) { ((found = found || take_up(e, axis)), ...); }, effects_);
+    return axis;
+  }
+
+  // ---- invariants --------------------------------------------------------------------
+  /// Π = JΩ + h_r (body momentum; the rotor term only with a rotor effect).
+  Vector3 momentum(const Vector3& omega) const {
+    Vector3 p = body_.momentum(omega);
+    if constexpr (has_rotor) p += rotor_momentum();
+    return p;
+  }
+  /// ½ Ω·JΩ (the rotor's own constant spin energy is left out).
+  Scalar kinetic_energy(const Vector3& omega) const { return body_.kinetic_energy(omega); }
+  /// Σ V(Λ) over the potential effects.
+  Scalar potential_energy(const SO3<Scalar>& rotation) const {
+    if constexpr (has_potential) {
+      const Caches c = caches(rotation.matrix(), Scalar(0));
+      return potential(c, Matrix3::Identity());
+    } else {
+      return Scalar(0);
+    }
+  }
+  /// H = ½ Ω·JΩ + V(Λ)
+  Scalar energy(const State<Scalar>& s) const {
+    return kinetic_energy(s.omega) + potential_energy(s.rotation);
+  }
+  /// π = Λ(JΩ + h_r), the spatial angular momentum about O.
+  Vector3 spatial_momentum(const State<Scalar>& s) const { return s.rotation * momentum(s.omega); }
+  /// μ = γ·π, conserved under gravity about the up axis γ.
+  Scalar momentum_map(const State<Scalar>& s) const { return momentum_axis().dot(spatial_momentum(s)); }
+
+  // ---- assembly used by the schemes (frame of step n) ---------------------------------
+  /// Each effect's cache for a step from Λ_n, with mid time t_mid.
+  Caches caches(const Matrix3& Lambda_n, Scalar t_mid) const {
+    return std::apply([&](const auto&... e) { return Caches{e.cache(Lambda_n, t_mid)...}; }, effects_);
+  }
+
+  /// Σ V(Λ_n R)
+  Scalar potential(const Caches& c, const Matrix3& R) const {
+    Scalar v(0);
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, potential_kind>) v += e.potential(ce, R);
+    }, c);
+    return v;
+  }
+
+  /// Σ conservative torques at Λ_n R, in frame n; with `jacobian`, also ∂/∂w.
+  Vector3 conservative_torque(const Caches& c, const Matrix3& R, Matrix3* jacobian = nullptr) const {
+    Vector3 tau = Vector3::Zero();
+    if (jacobian) jacobian->setZero();
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, potential_kind>) {
+        tau += e.torque(ce, R);
+        if (jacobian) *jacobian += e.torque_jacobian(ce, R);
+      }
+    }, c);
+    return tau;
+  }
+
+  /// Σ conservative torques at Λ_n R for R = I + a x̂ + b x̂² (8), given by x and its
+  /// coefficients, in frame n. Effects with torque_rodrigues (gravity) rotate their body
+  /// vector without forming R; for the others R is formed once. Same value as
+  /// conservative_torque(c, SO3::rodrigues(x, a, b)) up to round-off.
+  Vector3 conservative_torque_rodrigues(const Caches& c, const Vector3& x, Scalar a, Scalar b) const {
+    Vector3 tau = Vector3::Zero();
+    [[maybe_unused]] Matrix3 R;
+    [[maybe_unused]] bool have_R = false;
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, potential_kind>) {
+        if constexpr (requires { e.torque_rodrigues(ce, x, a, b); }) {
+          tau += e.torque_rodrigues(ce, x, a, b);
+        } else {
+          if (!have_R) R = SO3<Scalar>::rodrigues(x, a, b);
+          have_R = true;
+          tau += e.torque(ce, R);
+        }
+      }
+    }, c);
+    return tau;
+  }
+
+  /// Σ applied (non-conservative) torques at the mid configuration Λ_n R_mid and mid
+  /// velocity, in frame n; optional Jacobians w.r.t. w (rotation) and Ω_m.
+  Vector3 applied_torque(const Caches& c, const Matrix3& R_mid, const Vector3& omega_mid,
+                         Matrix3* d_rotation = nullptr, Matrix3* d_omega = nullptr) const {
+    Vector3 tau = Vector3::Zero();
+    if (d_rotation) d_rotation->setZero();
+    if (d_omega) d_omega->setZero();
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, torque_kind>) {
+        tau += e.torque(ce, R_mid, omega_mid);
+        if (d_rotation) *d_rotation += e.torque_jacobian_rotation(ce, R_mid, omega_mid);
+        if (d_omega) *d_omega += e.torque_jacobian_omega(ce, R_mid, omega_mid);
+      }
+    }, c);
+    return tau;
+  }
+
+  /// Σ h_r over the rotor effects (body frame).
+  Vector3 rotor_momentum() const {
+    Vector3 h = Vector3::Zero();
+    std::apply([&](const auto&... e) { ((add_rotor(e, h)), ...); }, effects_);
+    return h;
+  }
+
+  /// Total body torque at state (Λ, Ω, t), for explicit schemes (RK4).
+  Vector3 body_torque(const Matrix3& Lambda, const Vector3& omega, Scalar t) const {
+    Vector3 tau = Vector3::Zero();
+    if constexpr (has_potential || has_applied_torque) {
+      const Caches c = caches(Lambda, t);
+      const Matrix3 I = Matrix3::Identity();
+      if constexpr (has_potential) tau += conservative_torque(c, I);
+      if constexpr (has_applied_torque) tau += applied_torque(c, I, omega);
+    }
+    return tau;
+  }
+
+ private:
+  template <class E>
+  static bool take_up(const E& e, Vector3& axis) {
+    if constexpr (requires { e.up(); }) {
+      axis = e.up();
+      return true;
+    } else {
+      return false;
+    }
+  }
+  template <class E>
+  static void add_rotor(const E& e, Vector3& h) {
+    if constexpr (is_kind<E, rotor_kind>) h += e.rotor_momentum();
+  }
+  template <class F>
+  void for_each(F&& f, const Caches& c) const {
+    for_each_impl(f, c, std::index_sequence_for<Effects...>{});
+  }
+  template <class F, std::size_t... I>
+  void for_each_impl(F& f, const Caches& c, std::index_sequence<I...>) const {
+    (f(std::get<I>(effects_), std::get<I>(c)), ...);
+  }
+
+  RigidBody<Scalar> body_;
+  std::tuple<Effects...> effects_;
+};
+
+/// The torque-free body.
+template <class Scalar>
+using FreeScene = Scene<Scalar>;
+
+}  // namespace trompo

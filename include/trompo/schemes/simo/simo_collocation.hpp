@@ -1,0 +1,53 @@
+#pragma once
+// Simo collocation: [T1] with κ = 1 and α solved at every step so that the energy
+// balance is exact, (17)/[T2] (closed form for potentials linear in Λ, a safeguarded
+// root search for a general V). Keeps H, μ and, on the free body, π; symmetric, order 2.
+// Composed, it reaches orders 4 and 6 only where α(Θ) is smooth (composition.hpp).
+#include "trompo/schemes/simo/simo_step.hpp"
+#include "trompo/schemes/scheme.hpp"
+
+namespace trompo {
+
+/// Simo collocation: α solved each step so that the energy balance is exact, [T2].
+struct SimoCollocation {
+  /// "simo-collocation".
+  static constexpr const char* name = "simo-collocation";
+  /// Order of accuracy.
+  static constexpr int order = 2;
+  /// Symmetric: may be composed.
+  static constexpr bool symmetric = true;
+  /// Keeps H, μ and π (free body).
+  template <class Scene>
+  static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
+
+  /// Whether the steps of a Trajectory start from the history predictor and the carried
+  /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved
+  /// as a memoryless one. Either way the step's acceptance, hence its exactness, is the same.
+  bool history_predictor = true;
+  /// The last increments and tangent (IncrementHistory), per trajectory.
+  template <class Scene>
+  using Memory = IncrementHistory<typename Scene::Scalar>;
+  /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
+  static constexpr bool memory_is_hint = true;
+  /// The step writes the memory only when it succeeds, after checking its result
+  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
+  static constexpr bool writes_memory_on_success = true;
+
+  /// One step: Newton on [T1] with α(Θ) from [T2], then (9)–(10).
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h,
+                                          const NewtonOptions<typename Scene::Scalar>& options,
+                                          State<typename Scene::Scalar>& out, Memory<Scene>& memory) const {
+    return detail::simo_step<detail::SimoVariant::collocation>(0.5, scene, in, h, options, out,
+                                                          history_predictor ? &memory : nullptr);
+  }
+
+  /// The residual [T1] and tangent [T3] of a step (for tests and tools).
+  template <class Scene>
+  detail::SimoResidual<detail::SimoVariant::collocation, Scene> residual(const detail::StepData<Scene>& d) const {
+    return {0.5, d};
+  }
+};
+
+}  // namespace trompo

@@ -10,7 +10,7 @@ time from getrusage, and wall time including process start), Python in-process
 and the ratio Python / CLI of the minima (CPU time: the least disturbed by other load on
 a shared machine).
 
-    PYTHONPATH=build/python python3 bench/python_overhead.py build/examples/trompo-simulate
+    PYTHONPATH=build/python python3 bench/python_overhead.py build/tools/trompo-simulate
 """
 import argparse
 import resource

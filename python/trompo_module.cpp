@@ -1,5 +1,5 @@
 // trompo._trompo: the C++ half of the Python module `trompo` (python/trompo/__init__.py is
-// the other half). It runs trompo-simulate's own logic (examples/simulate/simulate_core.hpp):
+// the other half). It runs trompo-simulate's own logic (tools/simulate/simulate_core.hpp):
 // the same flag parser with the same messages, the same checks, the same dispatch; rows go
 // to NumPy arrays instead of a CSV file, so they are bit-identical to the CLI's. The GIL is
 // released while C++ integrates.

@@ -18,7 +18,7 @@ build=build/report
 scripts/deps.sh python3-matplotlib
 
 echo "== build trompo-bench (Release)"
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTROMPO_BUILD_TESTS=OFF -DTROMPO_BUILD_EXAMPLES=OFF \
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTROMPO_BUILD_TESTS=OFF -DTROMPO_BUILD_EXAMPLES=OFF -DTROMPO_BUILD_TOOLS=OFF \
   -DTROMPO_BUILD_BENCH=ON >/dev/null
 cmake --build "$build" --target trompo-bench -j"$(nproc)"
 

@@ -13,7 +13,7 @@ ROOT = pathlib.Path(os.environ.get("TROMPO_SOURCE_DIR", pathlib.Path(__file__).r
 def cli_path():
     path = os.environ.get("TROMPO_SIMULATE")
     if not path:
-        for cand in (ROOT / "build/examples/trompo-simulate", ROOT / "build/test/examples/trompo-simulate"):
+        for cand in (ROOT / "build/tools/trompo-simulate", ROOT / "build/test/tools/trompo-simulate"):
             if cand.exists():
                 path = str(cand)
                 break

@@ -3,7 +3,7 @@
 // attitude error ‖Λ − Λref‖_F, and the observed order log(err(5h)/err(h))/log 5.
 // Λref: the closed-form Lagrange top (HT1), the published 128-bit solution (HT2, docs/theory.md §8).
 //
-//   build/…/examples/trompo-invariants
+//   build/…/tools/trompo-invariants
 #include <cmath>
 #include <cstdio>
 

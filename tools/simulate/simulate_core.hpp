@@ -1,5 +1,5 @@
 #pragma once
-// The logic of trompo-simulate, shared by the CLI (examples/trompo_simulate.cpp) and the
+// The logic of trompo-simulate, shared by the CLI (tools/simulate/trompo_simulate.cpp) and the
 // Python module (python/trompo_module.cpp): the Config and its flag parser (parse,
 // parse_flags), the checks made before anything is written (validate), the scene and
 // scheme dispatch (simulate, dispatch_scheme, run_scheme, run, run_exact) and the rows,

@@ -217,6 +217,9 @@ void add_reference_context(const Problem<SceneT>& p) {
 }  // namespace
 
 int main(int argc, char** argv) {
+#ifdef TROMPO_BENCH_COMPILE_CHECK
+  std::fprintf(stderr, "trompo-bench: built with TROMPO_BENCH_COMPILE_CHECK (-O0): its timings mean nothing\n");
+#endif
   // Our own flags first; Google Benchmark rejects flags it does not know.
   std::string series_path;
   std::vector<char*> args;

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer (called by
-# scripts/test.sh). Debug build type so that Eigen's and the library's assertions are
-# on, at -O1 so that the suite stays fast; TROMPO_SANITIZED lets the long tests use
+# The contract tests (the list TROMPO_CONTRACT_TESTS in tests/CMakeLists.txt: bad input,
+# failure and recovery, memory, thresholds, the fuzz corpus, threads) under AddressSanitizer
+# + UndefinedBehaviorSanitizer (called by scripts/test.sh). Debug build type so that Eigen's
+# and the library's assertions are on, at -O1 with line tables only (-g1: enough for the
+# sanitizers' stack traces) so that the build and the suite stay fast; TROMPO_SANITIZED lets the long tests use
 # smaller counts (tests/test_long_run.cpp and others). The packaging tests are left out:
 # they build a Release consumer, nothing to sanitize. Nor is the Python module built here
 # (an ASan-instrumented extension cannot be loaded by an uninstrumented interpreter).
@@ -21,15 +23,16 @@ if [ -z "$cxx" ]; then
     if command -v "$c" >/dev/null; then cxx=$(command -v "$c"); break; fi
   done
 fi
-# A compiler change needs a fresh cache.
-if [ -f "$build/CMakeCache.txt" ] && ! grep -q "CMAKE_CXX_COMPILER:.*=$cxx\$" "$build/CMakeCache.txt"; then
+# A compiler or generator change needs a fresh cache.
+if [ -f "$build/CMakeCache.txt" ] && { ! grep -q "CMAKE_CXX_COMPILER:.*=$cxx\$" "$build/CMakeCache.txt" ||
+                                       ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' "$build/CMakeCache.txt"; }; then
   rm -rf "$build"
 fi
 
-cmake -S . -B "$build" \
+cmake -S . -B "$build" -G Ninja \
   -DCMAKE_CXX_COMPILER="$cxx" \
   -DCMAKE_BUILD_TYPE=Debug \
-  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
+  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
   -DCMAKE_CXX_FLAGS="-DTROMPO_SANITIZED=1" \
   -DTROMPO_SANITIZE=ON \
   -DTROMPO_WARNINGS_AS_ERRORS=OFF \

@@ -1,6 +1,6 @@
 // The adaptive driver, its dense output and events (include/trompo/drivers/adaptive.hpp,
 // dense_output.hpp; docs/adaptive.md, docs/theory.md §15):
-//   1. tolerance proportionality against the closed forms (HT0, HT1, FB1; orders 2, 4, 6);
+//   1. tolerance proportionality against the closed forms (HT0, HT1, FB1 at orders 2, 4, 6);
 //   2. H and μ exact for Simo-κ under adaptive steps, in both controls;
 //   3. dense output: orthogonal, and of order 6 (quintic) / 4 (cubic) per step, measured;
 //   4. events against the Lagrange top's closed-form turning points; terminal events;
@@ -97,7 +97,7 @@ void proportionality(const Case& c, double t_end, int order, double lo, double h
 
 }  // namespace
 
-TEST_CASE("adaptive: end error proportional to the tolerance (HT0, HT1, FB1; orders 2, 4, 6)", "[adaptive]") {
+TEST_CASE("adaptive: end error proportional to the tolerance (HT0, HT1, FB1 at orders 2, 4, 6)", "[adaptive]") {
   // Order 4 over rtol 1e-4 … 1e-10 on all three. Order 6: HT0 over 1e-4 … 1e-10; HT1 and
   // FB1 over 1e-6 … 1e-10: above that their steps are held by max_rotation (3 rad per
   // step; HT1 spins at 50 rad/s), so the error sits below the tolerance (HT1 at 1e-4:
@@ -261,7 +261,7 @@ TEST_CASE("events: nutation extrema of HT0 against the closed form", "[adaptive]
   for (std::size_t i = 0; i < minima.size(); ++i) CHECK(std::abs(run.events[1][i].time - minima[i]) <= 2e-10 * (1 + minima[i]));
 }
 
-TEST_CASE("events: a terminal event ends the run with a real step; t_eval; solution(t)", "[adaptive][events]") {
+TEST_CASE("events: a terminal event ends the run with a real step, t_eval and solution(t)", "[adaptive][events]") {
   const auto c = cases::ht0();
   const auto& g = c.scene.effect<UniformGravity<double>>();
   const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());

@@ -12,7 +12,10 @@ C++ code: the parser, the checks, the dispatch), so its rows are bit-identical t
 CLI's CSV rows. See docs/python.md.
 """
 import numbers
+import os
+import re
 import sys
+import tempfile
 import warnings
 
 #: The interpreter the extension was built for (CMake's Python3_EXECUTABLE).
@@ -29,7 +32,7 @@ from ._trompo import simulate_flags as _simulate_flags
 from ._trompo import usage as _usage
 from ._trompo import __version__
 
-__all__ = ["simulate", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__"]
+__all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__"]
 
 #: The keys of simulate()'s dict, in the CSV header's order (R is (n,3,3), W and pi (n,3)).
 COLUMNS = ("t", "R", "W", "H", "mu", "pi", "iterations")
@@ -142,9 +145,109 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     return rows
 
 
+# ---- adaptive steps (docs/adaptive.md) ----
+class OdeResult(dict):
+    """solve_ivp's result, a dict with attribute access as SciPy's: t, y, sol, t_events,
+    y_events, status, message, success, and R, W, H, mu, pi, iterations (per row, as
+    simulate()'s), nsteps, nreject, nfail and niter (all Newton iterations)."""
+
+    def __getattr__(self, name):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+_SUMMARY = re.compile(r"adaptive \((\w+), rtol [^,]*, atol [^)]*\): (\d+) accepted, (\d+) rejected, (\d+) failed attempts, "
+                      r"(\d+) Newton iterations; (.*)")
+
+
+def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, events=None, first_step=None,
+              control="tolerance", **flags):
+    """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
+    bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
+
+    ``t_span`` is (0, t_end) (runs start at t = 0, as the CLI's); ``first_step`` is ``--dt``
+    (a case gives its own); ``control`` is "tolerance" or "reversible". ``events``: built-in
+    names ("nutation-max", "nutation-min", "axis-crossing", "flip"), or objects with
+    ``.name`` (one of those) and optionally ``.terminal`` (bool or count); Python callables
+    are not supported yet. Other keywords are simulate()'s (scheme, order, inertia, ...).
+
+    Returns an OdeResult: ``t`` (n,), ``y`` (12, n) (Λ row-major, then Ω, per column),
+    ``t_events``/``y_events`` per event, ``status`` (0 end reached, 1 terminal event, -1
+    failed), ``message``, ``success``, ``R``, ``W``, ``H``, ``mu``, ``pi``, ``iterations``
+    (per row), ``nsteps`` (accepted), ``nreject``, ``nfail``, ``niter`` (Newton iterations
+    in all); ``sol`` is None (the dense output
+    is C++'s AdaptiveRun::solution for now).
+    """
+    kwargs = dict(case=case, rtol=rtol, atol=atol, control=control, dt=first_step, **flags)
+    if t_span is not None:
+        t0, t1 = (float(x) for x in t_span)
+        if t0 != 0.0:
+            raise ValueError(f"t_span: runs start at t = 0, got t0 = {t0!r}")
+        kwargs["t_end"] = t1
+    for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
+        if name in flags:
+            raise TypeError(f"solve_ivp: {name!r} is not a solve_ivp argument")
+    if t_eval is not None:
+        kwargs["t_eval"] = ",".join(repr(float(v)) for v in np.atleast_1d(np.asarray(t_eval, dtype=float)))
+    names = []
+    if events is not None:
+        if callable(events) or isinstance(events, str) or not isinstance(events, (list, tuple)):
+            events = [events]
+        items = []
+        for e in events:
+            if isinstance(e, str):
+                name, terminal = e, 0
+            elif hasattr(e, "name") and isinstance(e.name, str):
+                name, terminal = e.name, getattr(e, "terminal", 0)
+            else:
+                raise NotImplementedError("solve_ivp: events must be built-in names for now, got " + repr(e))
+            terminal = int(terminal) if not isinstance(terminal, bool) else int(terminal)
+            if getattr(e, "direction", 0) not in (0,):
+                raise NotImplementedError("solve_ivp: the built-in events carry their own direction")
+            names.append(name)
+            items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
+        kwargs["event"] = ";".join(items)
+    fd, event_path = tempfile.mkstemp(suffix=".csv")
+    os.close(fd)
+    try:
+        if names:
+            kwargs["event_csv"] = event_path
+        status, rows, messages = _simulate_flags(_flags(kwargs))
+        event_rows = []
+        if names:
+            with open(event_path) as f:
+                next(f)
+                event_rows = [line.rstrip("\n").split(",") for line in f]
+    finally:
+        os.unlink(event_path)
+    m = next((_SUMMARY.match(x) for x in messages if _SUMMARY.match(x)), None)
+    if m is None:
+        raise RuntimeError("solve_ivp: no summary from the engine: " + "; ".join(messages))
+    ended = m.group(6)
+    code = 1 if ended == "stopped by a terminal event" else 0 if ended == "reached t_end" else -1
+    n = len(rows["t"])
+    res = OdeResult(rows)
+    res["y"] = np.concatenate([rows["R"].reshape(n, 9), rows["W"]], axis=1).T.copy()
+    res["sol"] = None
+    res["t_events"], res["y_events"] = [], []
+    for name in names:
+        sel = [r for r in event_rows if r[0] == name]
+        res["t_events"].append(np.array([float(r[1]) for r in sel]))
+        res["y_events"].append(np.array([[float(v) for v in r[2:14]] for r in sel]).reshape(len(sel), 12))
+    res["status"] = code
+    res["success"] = code >= 0
+    res["message"] = {1: "A termination event occurred.",
+                      0: "The solver successfully reached the end of the integration interval."}.get(code, ended)
+    res["nsteps"], res["nreject"], res["nfail"], res["niter"] = (int(m.group(k)) for k in (2, 3, 4, 5))
+    return res
+# ---- end adaptive ----
+
+
 def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
              composition=None, com=None, up=None, dt=None, t_end=None, damping=None, torque=None,
-             space_torque=None, rotor=None, threads=0, **flags):
+             space_torque=None, rotor=None, threads=0, progress=False, **flags):
     """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
 
     ``rotation`` is (N,3) rotation vectors (Λ0 = exp(R^), as ``--rotation``) or (N,3,3)
@@ -160,6 +263,10 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
     and ``recovered`` (intervals saved by sub-stepping). A failed member does not stop
     the others and raises nothing: its row is its last good state. Other keywords are
     passed on as CLI flags, as for simulate().
+
+    ``progress=True`` runs the members in about 20 batches and reports ``ensemble: k/N
+    members`` on stderr after each (a callable gets ``(k, N)`` instead); the members are
+    independent, so the results are the same bits as one batch.
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, com=com, up=up,
                   dt=dt, t_end=t_end, damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
@@ -175,7 +282,23 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
         mgl = np.asarray(mgl, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
-    return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+    if not progress:
+        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+    report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))
+    n = len(rotation)
+    size = max(1, -(-n // 20))
+    parts = []
+    for lo in range(0, n, size):
+        hi = min(n, lo + size)
+        parts.append(_ensemble_flags(flags, rotation[lo:hi], omega[lo:hi], None if mgl is None else mgl[lo:hi],
+                                     None if inertia is None else inertia[lo:hi]))
+        report(hi, n)
+    if not parts:  # N = 0: the engine's own error
+        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+    out = {}
+    for key, first in parts[0].items():
+        out[key] = [x for p in parts for x in p[key]] if isinstance(first, list) else np.concatenate([p[key] for p in parts])
+    return out
 
 
 def usage():

@@ -32,6 +32,7 @@
 #include "trompo/exact/free_body.hpp"
 #include "trompo/exact/lagrange_top.hpp"
 #endif
+#include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/ensemble.hpp"
 #include "trompo/trompo.hpp"
 
@@ -78,9 +79,29 @@ constexpr const char* kUsage =
     "  --ensemble FILE              integrate every initial state of FILE (CSV with header\n"
     "                               rotation1,rotation2,rotation3,omega1,omega2,omega3[,mgl][,J11,J22,J33[,J12,J13,J23]])\n"
     "                               across cores; writes each member's final state (docs/python.md)\n"
-    "  --threads N                  with --ensemble: worker threads (default 0: every core)\n";
+    "  --threads N                  with --ensemble: worker threads (default 0: every core)\n"
+    // ---- adaptive steps (docs/adaptive.md) ----
+    "  --rtol R [--atol A]          adaptive steps to tolerances R, A (default A 1e-6); --dt is the first step\n"
+    "  --control tolerance|reversible   step doubling + PI control (default), or Hairer-Soderlind's\n"
+    "                               time-reversible step density (conservative scenes, long runs)\n"
+    "  --t-eval T1,T2,...|@FILE     rows at exactly these times (dense output), and only these\n"
+    "  --event NAME[:terminal[:N]]  nutation-max|nutation-min|axis-crossing|flip (repeatable)\n"
+    "  --event-csv FILE             one row per event: event, then the usual columns\n";
+
+// ---- adaptive steps (--rtol, --atol, --control, --t-eval, --event, --event-csv) ----
+/// The adaptive flags (docs/adaptive.md); `on` when --rtol is given.
+struct AdaptiveFlags {
+  bool on = false;
+  double rtol = 1e-3, atol = 1e-6;  ///< SciPy's defaults (--rtol is required to switch on)
+  std::string control = "tolerance";
+  std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
+  std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
+  std::string event_csv;                             ///< --event-csv FILE
+};
+// ---- end adaptive ----
 
 struct Config {
+  AdaptiveFlags adaptive;  ///< --rtol … (adaptive steps)
   std::string scheme = "simo-kappa";
   std::optional<double> alpha;
   M3 inertia = M3::Zero();
@@ -179,6 +200,61 @@ inline bool known_scheme(const std::string& name) {
   return std::any_of(std::begin(schemes), std::end(schemes), [&](const char* s) { return name == s; });
 }
 
+// ---- adaptive steps: the flags ----
+/// Reads one adaptive flag into `a`; false if `flag` is not one of them.
+inline bool parse_adaptive_flag(const std::string& flag, const std::string& value, AdaptiveFlags& a) {
+  if (flag == "--rtol") {
+    a.on = true;
+    a.rtol = parse_number(flag, value);
+  } else if (flag == "--atol") {
+    a.atol = parse_number(flag, value);
+  } else if (flag == "--control") {
+    a.control = value;
+  } else if (flag == "--t-eval") {
+    if (!value.empty() && value[0] == '@') {  // @FILE: one time a line (blank lines skipped)
+      std::ifstream in(value.substr(1));
+      if (!in) throw invalid_input("--t-eval: cannot open '" + value.substr(1) + "'");
+      std::string line;
+      while (std::getline(in, line)) {
+        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+        a.t_eval.push_back(parse_number(flag, line));
+      }
+      if (a.t_eval.empty()) throw invalid_input("--t-eval: no time in '" + value.substr(1) + "'");
+    } else {
+      a.t_eval = parse_list(flag, value);
+    }
+  } else if (flag == "--event") {
+    std::stringstream list(value);
+    std::string item;
+    while (std::getline(list, item, ';')) {
+      // NAME, NAME:terminal (the first occurrence ends the run) or NAME:terminal:N (the N-th)
+      const auto colon = item.find(':');
+      const std::string name = item.substr(0, colon);
+      int terminal = 0;
+      if (colon != std::string::npos) {
+        const std::string rest = item.substr(colon + 1);
+        if (rest == "terminal") terminal = 1;
+        else if (rest.rfind("terminal:", 0) == 0) {
+          const double n = parse_number(flag, rest.substr(9));
+          if (!(n >= 1 && n <= 1e9) || n != std::floor(n))
+            throw invalid_input("--event " + item + ": the count must be a positive integer");
+          terminal = static_cast<int>(n);
+        } else {
+          throw invalid_input("--event " + item + ": expected NAME, NAME:terminal or NAME:terminal:N");
+        }
+      }
+      a.events.emplace_back(name, terminal);
+    }
+  } else if (flag == "--event-csv") {
+    a.event_csv = value;
+  } else {
+    return false;
+  }
+  return true;
+}
+inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags);
+// ---- end adaptive ----
+
 /// The flags (name with its "--" → value) as a Config, with the CLI's checks and messages.
 /// trompo-simulate's parse() and the Python module (python/trompo_module.cpp) both come here.
 inline Config parse_flags(const std::map<std::string, std::string>& flags) {
@@ -258,6 +334,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       if (!(k >= 0) || k != std::floor(k) || k > 4096) throw invalid_input("--threads: must be an integer in [0, 4096], got " + value);
       c.threads = static_cast<unsigned>(k);
     }
+    else if (parse_adaptive_flag(flag, value, c.adaptive)) continue;  // adaptive steps
     else throw invalid_input("unknown option '" + flag + "' (see --help)");
   }
   // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
@@ -336,7 +413,45 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   if (!c.ensemble.empty())
     for (const char* f : {"--rotation", "--omega", "--every"})
       if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
+  check_adaptive(c, flags);  // adaptive steps
   return c;
+}
+
+/// The checks of the adaptive flags (exit 2 with the reason), after parse_flags' own.
+inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags) {
+  const AdaptiveFlags& a = c.adaptive;
+  if (!a.on) {
+    for (const char* f : {"--atol", "--control", "--t-eval", "--event", "--event-csv"})
+      if (flags.count(f)) throw invalid_input(std::string(f) + ": only with adaptive steps (give --rtol)");
+    return;
+  }
+  if (!(std::isfinite(a.rtol) && a.rtol > 0)) throw invalid_input("--rtol: must be finite and > 0, got " + flags.at("--rtol"));
+  if (!(std::isfinite(a.atol) && a.atol >= 0)) throw invalid_input("--atol: must be finite and >= 0, got " + flags.at("--atol"));
+  if (a.control != "tolerance" && a.control != "reversible")
+    throw invalid_input("--control: must be tolerance or reversible, got '" + a.control + "'");
+  if (!c.ensemble.empty()) throw invalid_input("--rtol: adaptive steps are not available with --ensemble");
+  if (c.scheme == "exact") throw invalid_input("--rtol: --scheme exact has no steps to adapt (use --t-eval with a scheme)");
+  if (c.processed)
+    throw invalid_input("--rtol: the processed composition's processor is tied to h (each change of h costs 24 base "
+                        "steps): use --order 6 (Kahan-Li) for adaptive steps, or drop --rtol");
+  if (!a.t_eval.empty() && flags.count("--every")) throw invalid_input("--every: not with --t-eval (rows at those times only)");
+  if (!a.event_csv.empty() && a.events.empty()) throw invalid_input("--event-csv: needs at least one --event");
+  const double t0 = 0, t1 = *c.t_end;
+  const bool forward = t1 >= t0;
+  for (std::size_t i = 0; i < a.t_eval.size(); ++i) {
+    const double t = a.t_eval[i];
+    if (!std::isfinite(t) || (forward ? (t < t0 || t > t1) : (t > t0 || t < t1)))
+      throw invalid_input("--t-eval: time " + std::to_string(t) + " lies outside [0, --t-end]");
+    if (i > 0 && (forward ? !(t > a.t_eval[i - 1]) : !(t < a.t_eval[i - 1])))
+      throw invalid_input(std::string("--t-eval: times must be strictly ") + (forward ? "increasing" : "decreasing"));
+  }
+  for (const auto& [name, terminal] : a.events) {
+    if (name != "nutation-max" && name != "nutation-min" && name != "axis-crossing" && name != "flip")
+      throw invalid_input("--event: unknown event '" + name + "' (nutation-max, nutation-min, axis-crossing, flip)");
+    if ((name == "nutation-max" || name == "nutation-min") && c.mgl == 0)
+      throw invalid_input("--event " + name + ": needs gravity (--mgl non-zero)");
+    (void)terminal;
+  }
 }
 
 /// The command line as flags, then parse_flags.
@@ -355,6 +470,10 @@ inline Config parse(int argc, char** argv) {
       continue;
     }
     if (i + 1 >= argc) throw invalid_input(a + ": missing value");
+    if (a == "--event" && flags.count(a)) {  // adaptive: repeatable, kept as a ';' list
+      flags[a] += std::string(";") + argv[++i];
+      continue;
+    }
     if (flags.count(a)) throw invalid_input(a + ": given twice");
     flags[a] = argv[++i];
   }
@@ -442,10 +561,94 @@ inline long step_count(const Config& c) {
   return std::max(1L, static_cast<long>(std::ceil(ratio - 8 * eps * std::max(ratio, 1.0))));
 }
 
+// ---- adaptive steps: the run (--rtol) ----
+/// Runs `stepper` through trompo::integrate_adaptive (drivers/adaptive.hpp): rows at every
+/// --every-th accepted step (and the last), or at exactly the --t-eval times from the dense
+/// output; --event rows to --event-csv ("event," then the usual columns); one summary line.
+template <class StepperT>
+int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSink& out) {
+  using namespace trompo;
+  if constexpr (detail::is_processed<StepperT>()) {
+    throw invalid_input("--rtol: the processed composition's processor is tied to h: use --order 6");
+  } else {
+    const AdaptiveFlags& a = c.adaptive;
+    const auto& scene = stepper.scene();
+    const V3 up = c.up.normalized();
+    AdaptiveOptions<double> opt;
+    opt.rtol = a.rtol;
+    opt.atol = a.atol;
+    opt.control = a.control == "reversible" ? StepControl::reversible : StepControl::tolerance;
+    opt.first_step = std::abs(*c.dt);
+    std::vector<Event<double>> ev;
+    for (const auto& [name, terminal] : a.events) ev.push_back(events::by_name(scene, name, terminal));
+    std::FILE* event_file = nullptr;
+    if (!a.event_csv.empty()) {
+      event_file = std::fopen(a.event_csv.c_str(), "w");
+      if (!event_file) throw invalid_input("--event-csv: cannot open '" + a.event_csv + "': " + std::strerror(errno));
+      std::fprintf(event_file, "event,%s", kHeader);
+    }
+    out.header();
+    const bool at_times = !a.t_eval.empty();
+    std::size_t next = 0;
+    long k = 0, written_iterations = 0;
+    double last_row = std::numeric_limits<double>::quiet_NaN();
+    auto row = [&](const State<double>& st, long iterations) {
+      write_row(out, scene, up, st, iterations - written_iterations);
+      written_iterations = iterations;
+      last_row = st.time;
+    };
+    if (!at_times || a.t_eval[0] == s.time) {
+      row(s, 0);
+      next = at_times ? 1 : 0;
+    }
+    auto observer = [&](const DenseNode<double>& na, const DenseNode<double>& nb, const AdaptiveSummary<double>& sum) {
+      const long its = static_cast<long>(sum.iterations);
+      if (!at_times) {
+        if (++k % c.every == 0) row(nb.state, its);
+        return;
+      }
+      const double tb = nb.state.time;
+      const bool forward = tb >= na.state.time;
+      if (next < a.t_eval.size() && (forward ? a.t_eval[next] <= tb : a.t_eval[next] >= tb)) {
+        const LieHermite<double> seg(na, nb, opt.quintic);
+        while (next < a.t_eval.size() && (forward ? a.t_eval[next] <= tb : a.t_eval[next] >= tb)) {
+          row(a.t_eval[next] == tb ? nb.state : seg.state(a.t_eval[next]), its);
+          ++next;
+        }
+      }
+    };
+    auto sink = [&](int index, const State<double>& st, bool) {
+      if (!event_file) return;
+      std::fprintf(event_file, "%s,", ev[static_cast<std::size_t>(index)].name.c_str());
+      CsvSink(event_file).row(st.time, st.rotation.matrix(), st.omega, scene.energy(st), up.dot(scene.spatial_momentum(st)),
+                              scene.spatial_momentum(st), 0);
+    };
+    const AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, *c.t_end, opt, observer, &ev, sink);
+    if (!at_times && !(s.time == last_row)) row(s, static_cast<long>(sum.iterations));  // the end, always
+    if (event_file) std::fclose(event_file);
+    out.message(format("adaptive (%s, rtol %g, atol %g): %lld accepted, %lld rejected, %lld failed attempts, %lld Newton "
+                       "iterations; %s",
+                       a.control.c_str(), a.rtol, a.atol, static_cast<long long>(sum.accepted),
+                       static_cast<long long>(sum.rejected), static_cast<long long>(sum.failures),
+                       static_cast<long long>(sum.iterations),
+                       sum.status == AdaptiveStatus::event ? "stopped by a terminal event"
+                       : sum.ok()                          ? "reached t_end"
+                                                           : sum.message()));
+    if (!sum.ok()) {
+      out.flush();
+      out.message(format("adaptive run failed at t = %.17g: %s", s.time, sum.message()));
+      return 3;
+    }
+    return 0;
+  }
+}
+// ---- end adaptive ----
+
 /// Runs `stepper` through trompo::integrate (failed steps are retried as sub-steps) and
 /// writes the CSV rows.
 template <class StepperT>
 int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSink& out) {
+  if (c.adaptive.on) return run_adaptive(stepper, c, s, out);  // adaptive steps (--rtol)
   const auto& scene = stepper.scene();
   const V3 up = c.up.normalized();  // μ = γ·π about the given up axis, with or without gravity
   out.header();

@@ -128,6 +128,17 @@ class LagrangeTop {
     return Om;
   }
 
+  /// The nutation period 2K/λ: u = γ·ΛE repeats with it (infinite for a steady top).
+  double nutation_period() const { return steady_ ? std::numeric_limits<double>::infinity() : 2.0 * ell_.K() / lambda_; }
+
+  /// The time of the j-th turning point of the tilt, where λt + τ0 = jK (u = u1 + (u2 − u1)
+  /// sn²(λt + τ0), so u̇ ∝ sn cn dn = 0 there): even j, the tilt is largest (u = u1); odd j,
+  /// smallest (u = u2). NaN for a steady top.
+  double tilt_turning_time(long j) const {
+    if (steady_) return std::numeric_limits<double>::quiet_NaN();
+    return (static_cast<double>(j - n0_) * ell_.K() - tau0_) / lambda_;
+  }
+
  private:
   // Half-angle factors ch = cos θ/2, sh = sin θ/2 (signed where the top passes through
   // u = ±1), their rates, the angles σ, δ and ch σ̇, sh δ̇.

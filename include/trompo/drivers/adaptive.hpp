@@ -1,0 +1,820 @@
+#pragma once
+// Adaptive steps: a tolerance in, a solution out (docs/adaptive.md; docs/theory.md §15, [A1]–[A6]).
+//
+//   auto c = trompo::cases::ht1<double>();
+//   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, c.scene, 4);
+//   AdaptiveOptions<double> opt;  opt.rtol = 1e-8;  opt.atol = 1e-8;
+//   // Odeint-like: advance a state to t_end, an observer sees every accepted step
+//   State<double> s = c.initial;
+//   AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, c.t_end, opt);
+//   // SciPy-like: a solution object with dense output, t_eval and events
+//   AdaptiveRun<double> run = solve(stepper, c.initial, c.t_end, opt, {0.5, 1.0}, {nutation_max(c.scene)});
+//   State<double> mid = run.solution(0.25);
+//
+// Tolerance mode [A1]. Each step of size h is taken twice: Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y)
+// (step doubling); the run advances with the two half steps, a product of base steps, so
+// whatever the scheme keeps (H and μ for Simo-κ, also in its compositions) stays exact for
+// the whole variable-step run. The extrapolated value is never used (it would break H, μ).
+// The estimate e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1) is measured in the frame-invariant RMS norm
+// [A2] and divided by |h| (error per unit step), so that the global error is ∝ tol.
+// Söderlind's H211b filter [A3] picks the next h; a rejected step retries with the
+// elementary controller; a Newton failure (any StepStatus but ok) is a rejection that
+// quarters h and caps the next growth at 1.5×; the failure contract holds: every attempt
+// works on copies of the trajectory (state and memory), committed on acceptance only.
+// A composition (ComposedStepper) is stepped whole: h changes only between whole
+// composed steps. The processed composition is not accepted (a compile-time error): its
+// processor P_h is tied to h, so every change of h would cost P_{h'}∘P_h⁻¹ (24 base steps,
+// about two kernel steps) and make the outputs depend on the step history; run it at fixed
+// h with integrate().
+//
+// Reversible mode [A5] (Hairer & Söderlind 2005) for conservative scenes and long runs,
+// e.g. of the splitting: no estimator, no rejection; the step is h = ε/ρ with the step
+// density ρ updated explicitly and symmetrically from the control function
+// Q(y) = √(|Ω|² + ω₀²) (the rotation per step ≈ ε), G = d/dt log Q = Ω·Ω̇/Q². Q is even
+// under the reversal (Λ, Ω) ↦ (Λ, −Ω) of the conservative tops, and G odd, as the method
+// requires. ε is set from the tolerance by a pilot of 20 tolerance-mode steps (mean of h·Q)
+// unless given. Only the last step is shortened to land on t_end.
+//
+// Events [A6] (SciPy's semantics). g(t, Λ, Ω) is sampled at the step ends and at three
+// interior points of the interpolant; a sign change (filtered by `direction`) is located by
+// Brent's method on the interpolant to a few ulp in t. A terminal event (its count reached)
+// ends the run with a real step from the last node to the event time, so the invariants
+// are exact there too.
+//
+// No heap allocation in the step loop: the scratch of the events is reserved before it;
+// only solve()'s solution object grows (its vectors of nodes, t_eval states and events).
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "trompo/drivers/dense_output.hpp"
+#include "trompo/drivers/integrate.hpp"
+#include "trompo/errors.hpp"
+#include "trompo/model/state.hpp"
+#include "trompo/schemes/scheme.hpp"
+
+namespace trompo {
+
+/// How the adaptive driver picks h.
+enum class StepControl {
+  tolerance,  ///< step doubling, H211b on the error per unit step [A2], [A3]
+  reversible  ///< Hairer–Söderlind step density, explicit and time-reversible [A5]
+};
+
+/// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
+template <class Scalar>
+struct AdaptiveOptions {
+  Scalar rtol = Scalar(1e-6);             ///< relative tolerance (> 0)
+  Scalar atol = Scalar(1e-6);             ///< absolute tolerance (≥ 0; rad and rad/s)
+  StepControl control = StepControl::tolerance;
+  Scalar first_step = Scalar(0);          ///< |h| of the first step; 0: selected [A3]
+  Scalar max_step = std::numeric_limits<Scalar>::infinity();  ///< largest |h|
+  /// Largest rotation per step, |h|·|Ω| (rad): keeps the Newton increments of the
+  /// sub-steps below π and the dense output's log on its branch.
+  Scalar max_rotation = Scalar(3);
+  Scalar safety = Scalar(0.9);            ///< controller safety factor
+  Scalar min_factor = Scalar(0.2);        ///< smallest h_{n+1}/h_n
+  Scalar max_factor = Scalar(5);          ///< largest h_{n+1}/h_n
+  std::int64_t max_steps = 100000000;     ///< accepted + rejected attempts before giving up
+  /// Reversible mode: ε of h = ε/ρ (0: from the tolerance by a pilot run) and the floor
+  /// ω₀ of Q (0: max(1e-3|Ω₀|, √|Ω̇₀|, 1e-8)).
+  Scalar epsilon = Scalar(0);
+  Scalar omega_floor = Scalar(0);
+  /// Dense output and events: quintic (else cubic) Lie–Hermite interpolant [D2].
+  bool quintic = true;
+
+  /// Throws invalid_input naming the first bad field.
+  void validate() const {
+    using std::isfinite;
+    const auto fin = [](Scalar x) { return static_cast<bool>(std::isfinite(static_cast<double>(x))); };
+    if (!(fin(rtol) && rtol > 0)) detail::fail("adaptive: rtol must be finite and > 0, got ", rtol);
+    if (!(fin(atol) && atol >= 0)) detail::fail("adaptive: atol must be finite and >= 0, got ", atol);
+    if (!(fin(first_step) && first_step >= 0))
+      detail::fail("adaptive: first_step must be finite and >= 0 (0: selected), got ", first_step);
+    if (!(max_step > 0)) detail::fail("adaptive: max_step must be > 0, got ", max_step);
+    if (!(fin(max_rotation) && max_rotation > 0 && max_rotation <= Scalar(4)))
+      detail::fail("adaptive: max_rotation must be in (0, 4] rad, got ", max_rotation);
+    if (!(fin(safety) && safety > 0 && safety <= 1)) detail::fail("adaptive: safety must be in (0, 1], got ", safety);
+    if (!(fin(min_factor) && min_factor > 0 && min_factor < 1))
+      detail::fail("adaptive: min_factor must be in (0, 1), got ", min_factor);
+    if (!(fin(max_factor) && max_factor > 1)) detail::fail("adaptive: max_factor must be finite and > 1, got ", max_factor);
+    if (max_steps < 1) detail::fail("adaptive: max_steps must be >= 1, got ", max_steps);
+    if (!(fin(epsilon) && epsilon >= 0)) detail::fail("adaptive: epsilon must be finite and >= 0, got ", epsilon);
+    if (!(fin(omega_floor) && omega_floor >= 0))
+      detail::fail("adaptive: omega_floor must be finite and >= 0, got ", omega_floor);
+  }
+};
+
+/// How an adaptive run ended (SciPy's status codes).
+enum class AdaptiveStatus : int {
+  failed = -1,      ///< a step could not be taken (see AdaptiveSummary::failure)
+  reached_end = 0,  ///< t_end reached
+  event = 1         ///< a terminal event ended the run
+};
+
+/// What the adaptive driver did.
+template <class Scalar>
+struct AdaptiveSummary {
+  std::int64_t accepted = 0;    ///< accepted steps
+  std::int64_t rejected = 0;    ///< steps rejected by the error test
+  std::int64_t failures = 0;    ///< attempts whose step failed (Newton, …), retried shorter
+  std::int64_t iterations = 0;  ///< Newton iterations of all attempts
+  std::int64_t base_steps = 0;  ///< step() calls on the stepper (each a whole composition)
+  AdaptiveStatus status = AdaptiveStatus::reached_end;
+  StepStatus failure = StepStatus::ok;  ///< the step failure that stopped a failed run
+  Scalar time = Scalar(0);              ///< the time reached
+  Scalar epsilon = Scalar(0);           ///< reversible mode: the ε used
+  Scalar h_last = Scalar(0);            ///< the last accepted step
+  /// True unless the run failed.
+  bool ok() const { return status != AdaptiveStatus::failed; }
+  /// SciPy's message.
+  const char* message() const {
+    switch (status) {
+      case AdaptiveStatus::reached_end: return "The solver successfully reached the end of the integration interval.";
+      case AdaptiveStatus::event: return "A termination event occurred.";
+      case AdaptiveStatus::failed: break;
+    }
+    return failure == StepStatus::ok ? "Too many steps." : to_string(failure);
+  }
+};
+
+/// An event function g(t, Λ, Ω) with SciPy's `direction` (+1: g rising through 0, −1:
+/// falling, 0: both) and `terminal` (0: never; n ≥ 1: the n-th occurrence ends the run).
+/// Rising and falling are with increasing t, also in a backward run (SciPy's follow the
+/// order of integration): a tilt maximum is a maximum either way.
+template <class Scalar>
+struct Event {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  std::string name;
+  std::function<Scalar(Scalar, const SO3<Scalar>&, const Vector3&)> g;
+  int direction = 0;
+  int terminal = 0;
+};
+
+/// The built-in events [A6].
+namespace events {
+/// g = d/dt(γ·ΛE) = γ·Λ(Ω × E): the rate of the cosine of the tilt between the body point E
+/// and the vertical γ. Its zeros rising (direction +1) are the tilt's maxima ("nutation-max",
+/// γ·ΛE smallest), falling (−1) its minima ("nutation-min").
+template <class Scalar>
+Event<Scalar> nutation(const Eigen::Matrix<Scalar, 3, 1>& E, const Eigen::Matrix<Scalar, 3, 1>& up, bool maximum,
+                       int terminal = 0) {
+  Event<Scalar> e;
+  e.name = maximum ? "nutation-max" : "nutation-min";
+  e.g = [E, up](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>& W) { return up.dot(L * W.cross(E)); };
+  e.direction = maximum ? 1 : -1;
+  e.terminal = terminal;
+  return e;
+}
+/// nutation() for a scene with gravity (E and γ of its gravity effect).
+template <class Scene>
+Event<typename Scene::Scalar> nutation(const Scene& scene, bool maximum, int terminal = 0) {
+  using Scalar = typename Scene::Scalar;
+  Eigen::Matrix<Scalar, 3, 1> E = Eigen::Matrix<Scalar, 3, 1>::Zero();
+  bool found = false;
+  std::apply([&](const auto&... eff) {
+    ((found = found || [&](const auto& x) {
+       if constexpr (requires { x.com_direction(); }) {
+         E = x.com_direction();
+         return true;
+       } else {
+         return false;
+       }
+     }(eff)),
+     ...);
+  }, scene.effects());
+  if (!found) detail::fail("event nutation: the scene has no gravity (no body point E to follow)");
+  return nutation<Scalar>(E, scene.momentum_axis(), maximum, terminal);
+}
+/// g = n·ΛA: the body axis A crossing the spatial plane of normal n ("axis-crossing").
+template <class Scalar>
+Event<Scalar> axis_crossing(const Eigen::Matrix<Scalar, 3, 1>& body_axis, const Eigen::Matrix<Scalar, 3, 1>& normal,
+                            int direction = 0, int terminal = 0) {
+  if (!detail::all_finite(body_axis) || !(body_axis.norm() > 0))
+    detail::fail("event axis-crossing: body axis must be finite and non-zero, got ", detail::to_text(body_axis));
+  if (!detail::all_finite(normal) || !(normal.norm() > 0))
+    detail::fail("event axis-crossing: plane normal must be finite and non-zero, got ", detail::to_text(normal));
+  Event<Scalar> e;
+  e.name = "axis-crossing";
+  const Eigen::Matrix<Scalar, 3, 1> A = body_axis.normalized(), n = normal.normalized();
+  e.g = [A, n](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>&) { return n.dot(L * A); };
+  e.direction = direction;
+  e.terminal = terminal;
+  return e;
+}
+/// g = u·JΩ, u the intermediate principal axis of J: a sign change is a flip of the body
+/// about that axis ("flip", the Dzhanibekov effect).
+template <class Scene>
+Event<typename Scene::Scalar> flip(const Scene& scene, int terminal = 0) {
+  using Scalar = typename Scene::Scalar;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  Eigen::SelfAdjointEigenSolver<Matrix3> eig(scene.body().inertia());
+  const Eigen::Matrix<Scalar, 3, 1> u = eig.eigenvectors().col(1);  // ascending: the middle one
+  const Matrix3 J = scene.body().inertia();
+  Event<Scalar> e;
+  e.name = "flip";
+  e.g = [u, J](Scalar, const SO3<Scalar>&, const Eigen::Matrix<Scalar, 3, 1>& W) { return u.dot(J * W); };
+  e.direction = 0;
+  e.terminal = terminal;
+  return e;
+}
+/// A built-in event by its CLI name: nutation-max, nutation-min, flip, axis-crossing
+/// (body axis e3 crossing the horizontal plane of the momentum axis). Throws invalid_input
+/// for an unknown name or one the scene cannot have.
+template <class Scene>
+Event<typename Scene::Scalar> by_name(const Scene& scene, const std::string& name, int terminal = 0) {
+  using V = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
+  if (name == "nutation-max") return nutation(scene, true, terminal);
+  if (name == "nutation-min") return nutation(scene, false, terminal);
+  if (name == "flip") return flip(scene, terminal);
+  if (name == "axis-crossing") return axis_crossing<typename Scene::Scalar>(V::UnitZ(), scene.momentum_axis(), 0, terminal);
+  detail::fail("event: unknown name '", name, "' (nutation-max, nutation-min, axis-crossing, flip)");
+}
+}  // namespace events
+
+/// The default observer of integrate_adaptive: none.
+struct NoStepObserver {};
+/// The default event sink: none.
+struct NoEventSink {};
+
+namespace detail {
+
+/// Brent's root of f on [a, b] with f(a)·f(b) ≤ 0 (Brent 1973, "zeroin"), to |b − a| ≤
+/// 2·tol: the root bracket shrinks to a few ulp of t when tol = 2ε|t|.
+template <class Scalar, class F>
+Scalar brent_root(F&& f, Scalar a, Scalar b, Scalar fa, Scalar fb) {
+  using std::abs;
+  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
+  if (fa == Scalar(0)) return a;
+  if (fb == Scalar(0)) return b;
+  Scalar c = a, fc = fa, d = b - a, e = d;
+  for (int iter = 0; iter < 200; ++iter) {
+    if ((fb > 0) == (fc > 0)) {
+      c = a;
+      fc = fa;
+      d = e = b - a;
+    }
+    if (abs(fc) < abs(fb)) {
+      a = b;
+      b = c;
+      c = a;
+      fa = fb;
+      fb = fc;
+      fc = fa;
+    }
+    const Scalar tol = Scalar(2) * eps * abs(b) + std::numeric_limits<Scalar>::denorm_min();
+    const Scalar m = (c - b) / 2;
+    if (abs(m) <= tol || fb == Scalar(0)) return b;
+    if (abs(e) >= tol && abs(fa) > abs(fb)) {
+      Scalar p, q, r;
+      const Scalar s = fb / fa;
+      if (a == c) {
+        p = 2 * m * s;
+        q = 1 - s;
+      } else {
+        q = fa / fc;
+        r = fb / fc;
+        p = s * (2 * m * q * (q - r) - (b - a) * (r - 1));
+        q = (q - 1) * (r - 1) * (s - 1);
+      }
+      if (p > 0) q = -q;
+      else p = -p;
+      if (2 * p < std::min(3 * m * q - abs(tol * q), abs(e * q))) {
+        e = d;
+        d = p / q;
+      } else {
+        d = m;
+        e = m;
+      }
+    } else {
+      d = m;
+      e = m;
+    }
+    a = b;
+    fa = fb;
+    b += abs(d) > tol ? d : (m > 0 ? tol : -tol);
+    fb = f(b);
+  }
+  return b;
+}
+
+/// One event occurrence inside a step.
+template <class Scalar>
+struct Occurrence {
+  Scalar t;
+  int index;
+};
+
+/// The adaptive loop (integrate_adaptive and solve).
+template <class Stepper, class Traj, class Observer, class Sink>
+struct AdaptiveLoop {
+  using Scalar = typename Stepper::Scalar;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  const Stepper& stepper;
+  Traj& traj;
+  Scalar t_end;
+  const AdaptiveOptions<Scalar>& opt;
+  Observer& observer;
+  Sink& sink;
+  const std::vector<Event<Scalar>>* event_list;
+  AdaptiveSummary<Scalar> sum{};
+
+  AdaptiveLoop(const Stepper& st, Traj& tr, Scalar te, const AdaptiveOptions<Scalar>& o, Observer& ob, Sink& si,
+               const std::vector<Event<Scalar>>* ev)
+      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si), event_list(ev) {}
+
+  static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
+  bool dense() const { return observed || (event_list && !event_list->empty()); }
+
+  // event scratch, reserved before the loop
+  std::vector<Scalar> g_prev{};
+  std::vector<int> remaining{};
+  std::vector<Occurrence<Scalar>> found{};
+
+  Scalar direction() const { return t_end >= traj.time ? Scalar(1) : Scalar(-1); }
+
+  /// The RMS error norm per unit step [A2] of the estimate (fine − coarse)/(2^p − 1).
+  Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse, const State<Scalar>& fine,
+                             Scalar h) const {
+    using std::abs;
+    using std::sqrt;
+    const Scalar k = Scalar((1 << stepper.order()) - 1);  // 2^p − 1
+    const Vector3 e_rot = (coarse.rotation.inverse() * fine.rotation).log() / k;
+    const Vector3 e_om = (fine.omega - coarse.omega) / k;
+    const Scalar s_rot = opt.atol + opt.rtol;
+    const Scalar s_om = opt.atol + opt.rtol * std::max(start.omega.norm(), fine.omega.norm());
+    const Scalar a = e_rot.norm() / s_rot, b = e_om.norm() / s_om;
+    return sqrt((a * a + b * b) / Scalar(2)) / abs(h);
+  }
+
+  /// |h| allowed by max_step and max_rotation at Ω.
+  Scalar h_cap(const Vector3& omega) const {
+    const Scalar w = omega.norm();
+    Scalar cap = opt.max_step;
+    if (w > 0) cap = std::min(cap, opt.max_rotation / w);
+    return cap;
+  }
+
+  /// The first step (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
+  Scalar first_step() const {
+    using std::pow;
+    using std::sqrt;
+    if (opt.first_step > 0) return std::min(opt.first_step, h_cap(traj.omega));
+    const auto& scene = stepper.scene();
+    const State<Scalar>& y0 = traj;
+    const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
+    const Scalar s_rot = opt.atol + opt.rtol, s_om = opt.atol + opt.rtol * w0.norm();
+    const auto rms = [](Scalar a, Scalar b) { return sqrt((a * a + b * b) / 2); };
+    const Scalar d0 = rms(Scalar(1) / s_rot, w0.norm() / s_om);
+    const Scalar d1 = rms(w0.norm() / s_rot, wd0.norm() / s_om);
+    Scalar h0 = (d0 < Scalar(1e-5) || d1 < Scalar(1e-5)) ? Scalar(1e-6) : Scalar(0.01) * d0 / d1;
+    h0 = std::min(h0, h_cap(w0));
+    State<Scalar> y1 = y0;  // explicit Euler
+    y1.rotation = y0.rotation * SO3<Scalar>::exp(direction() * h0 * w0);
+    y1.omega = w0 + direction() * h0 * wd0;
+    y1.time = y0.time + direction() * h0;
+    const Vector3 wd1 = omega_rate(scene, y1);
+    const Scalar d2 = rms((y1.omega - w0).norm() / s_rot, (wd1 - wd0).norm() / s_om) / h0;
+    const int p = stepper.order();
+    const Scalar dm = std::max(d1, d2);
+    const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
+                                          : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
+    return std::min({Scalar(100) * h0, h1, h_cap(w0)});
+  }
+
+  /// The observer: observer(a, b), or observer(a, b, summary) for one that wants the counts.
+  void notify(const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+    if constexpr (std::is_invocable_v<Observer&, const DenseNode<Scalar>&, const DenseNode<Scalar>&,
+                                      const AdaptiveSummary<Scalar>&>)
+      observer(a, b, static_cast<const AdaptiveSummary<Scalar>&>(sum));
+    else
+      observer(a, b);
+  }
+
+  // ---- events ------------------------------------------------------------------------
+  void start_events() {
+    if (!event_list) return;
+    const std::size_t n = event_list->size();
+    g_prev.resize(n);
+    remaining.resize(n);
+    found.reserve(4 * n + 4);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Event<Scalar>& e = (*event_list)[k];
+      if (!e.g) detail::fail("event '", e.name, "': no function");
+      if (e.direction < -1 || e.direction > 1) detail::fail("event '", e.name, "': direction must be -1, 0 or 1, got ", e.direction);
+      if (e.terminal < 0) detail::fail("event '", e.name, "': terminal must be >= 0, got ", e.terminal);
+      g_prev[k] = e.g(traj.time, traj.rotation, traj.omega);
+      remaining[k] = e.terminal;
+    }
+  }
+
+  static bool crosses(Scalar ga, Scalar gb, int dir) {
+    const bool up = ga < 0 && gb >= 0, down = ga > 0 && gb <= 0;
+    return dir > 0 ? up : dir < 0 ? down : (up || down);
+  }
+
+  /// The events of the step a → b on its interpolant, in the order of time (scratch `found`).
+  void locate(const LieHermite<Scalar>& seg, Scalar ta, Scalar tb) {
+    found.clear();
+    constexpr int samples = 4;  // sub-intervals: ends plus three interior points
+    for (std::size_t k = 0; k < event_list->size(); ++k) {
+      const Event<Scalar>& e = (*event_list)[k];
+      const auto g_at = [&](Scalar t) {
+        const State<Scalar> s = seg.state(t);
+        return e.g(t, s.rotation, s.omega);
+      };
+      Scalar t_lo = ta, g_lo = g_prev[k];
+      for (int i = 1; i <= samples; ++i) {
+        const Scalar t_hi = i == samples ? tb : ta + (tb - ta) * Scalar(i) / Scalar(samples);
+        const Scalar g_hi = g_at(t_hi);
+        // direction is the sign of dg/dt, in time (so nutation-max is a maximum backward too)
+        if (crosses(g_lo, g_hi, ta <= tb ? e.direction : -e.direction)) {
+          const Scalar root = brent_root<Scalar>(g_at, t_lo, t_hi, g_lo, g_hi);
+          found.push_back({root, static_cast<int>(k)});
+        }
+        t_lo = t_hi;
+        g_lo = g_hi;
+      }
+    }
+    const Scalar dir = direction();
+    std::sort(found.begin(), found.end(), [dir](const Occurrence<Scalar>& x, const Occurrence<Scalar>& y) {
+      return dir * x.t < dir * y.t;
+    });
+  }
+
+  // ---- the step ------------------------------------------------------------------------
+  /// One attempt of size h with step doubling; on success `fine` holds Ψ_{h/2}²(y) and the
+  /// return value is the error per unit step; on failure the status is set, traj untouched.
+  Scalar attempt(Scalar h, Traj& fine, StepStatus& status) {
+    Traj coarse = traj;
+    fine = traj;
+    StepReport<Scalar> r = stepper.step(coarse, h);
+    sum.iterations += r.iterations;
+    ++sum.base_steps;
+    if (r.ok()) {
+      const Scalar half = h / Scalar(2);
+      r = stepper.step(fine, half);
+      sum.iterations += r.iterations;
+      ++sum.base_steps;
+      if (r.ok()) {
+        r = stepper.step(fine, half);
+        sum.iterations += r.iterations;
+        ++sum.base_steps;
+      }
+    }
+    status = r.status;
+    if (!r.ok()) return Scalar(0);
+    return error_per_unit_step(traj, coarse, fine, h);
+  }
+
+  /// Commits `next` (ending at t_next), reports the step and its events. Returns false when
+  /// a terminal event ended the run (traj then at the event time).
+  bool commit(Traj& next, Scalar t_next) {
+    next.time = t_next;
+    if (!dense()) {
+      traj = next;
+      return true;
+    }
+    const DenseNode<Scalar> a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
+    const DenseNode<Scalar> b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
+    const LieHermite<Scalar> seg(a, b, opt.quintic);
+    if (event_list && !event_list->empty()) {
+      locate(seg, traj.time, t_next);
+      for (const Occurrence<Scalar>& o : found) {
+        const std::size_t k = static_cast<std::size_t>(o.index);
+        const bool terminal = remaining[k] > 0 && --remaining[k] == 0;
+        if (!terminal) {
+          if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
+          continue;
+        }
+        // A real step from the last node to the event time [A6].
+        Traj real = traj;
+        IntegrationSummary<Scalar> s;
+        if (!too_small(o.t - traj.time)) {
+          s = integrate(stepper, real, o.t, o.t - traj.time);
+          sum.iterations += s.iterations;
+          sum.base_steps += s.steps + s.substeps;
+        }
+        if (!s.ok()) {  // keep the step's end; report the event from the interpolant
+          if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
+          continue;
+        }
+        const DenseNode<Scalar> e = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real));
+        if constexpr (observed) notify(a, e);
+        if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, static_cast<const State<Scalar>&>(real), true);
+        traj = real;
+        sum.status = AdaptiveStatus::event;
+        return false;
+      }
+      for (std::size_t k = 0; k < event_list->size(); ++k) {
+        const State<Scalar>& s = next;
+        g_prev[k] = (*event_list)[k].g(s.time, s.rotation, s.omega);
+      }
+    }
+    if constexpr (observed) notify(a, b);
+    traj = next;
+    return true;
+  }
+
+  /// Whether a step from t of size h lands on (or beyond) t_end: then it is shortened.
+  Scalar clip(Scalar h, bool& last) const {
+    using std::abs;
+    const Scalar left = t_end - traj.time;
+    last = abs(h) >= abs(left) * (Scalar(1) - Scalar(8) * std::numeric_limits<Scalar>::epsilon());
+    return last ? left : h;
+  }
+
+  bool too_small(Scalar h) const {
+    using std::abs;
+    const Scalar far = std::max(abs(traj.time), abs(t_end));
+    return !(abs(h) > Scalar(4) * std::numeric_limits<Scalar>::epsilon() * far) || h == Scalar(0);
+  }
+
+  // ---- tolerance mode [A3] --------------------------------------------------------------
+  void run_tolerance() {
+    using std::abs;
+    using std::pow;
+    const Scalar dir = direction();
+    const int p = stepper.order();
+    Scalar h = dir * first_step();
+    Scalar r_prev = Scalar(1), h_prev = h;
+    bool have_prev = false;
+    Scalar growth_cap = opt.max_factor;
+    Traj fine = traj;
+    std::int64_t attempts = 0;
+    while (traj.time != t_end) {
+      if (++attempts > opt.max_steps) {
+        sum.status = AdaptiveStatus::failed;
+        return;
+      }
+      h = dir * std::min(abs(h), h_cap(traj.omega));
+      bool last = false;
+      const Scalar h_try = clip(h, last);
+      if (too_small(h_try) && !last) {
+        sum.status = AdaptiveStatus::failed;
+        return;
+      }
+      StepStatus status = StepStatus::ok;
+      const Scalar r = attempt(h_try, fine, status);
+      if (status != StepStatus::ok) {  // Newton failure: shorter step, nothing committed
+        ++sum.failures;
+        sum.failure = status;
+        h = h_try / Scalar(4);
+        growth_cap = Scalar(1.5);
+        if (too_small(h)) {
+          sum.status = AdaptiveStatus::failed;
+          return;
+        }
+        continue;
+      }
+      if (!(r <= Scalar(1))) {  // rejected: the elementary controller, h shrinks
+        ++sum.rejected;
+        const Scalar f = std::isfinite(static_cast<double>(r))
+                             ? std::max(opt.min_factor, opt.safety * pow(r, -Scalar(1) / Scalar(p)))
+                             : opt.min_factor;
+        h = h_try * std::min(f, Scalar(0.9));
+        growth_cap = Scalar(1);
+        continue;
+      }
+      // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
+      const Scalar rr = std::max(r, Scalar(1e-10));
+      Scalar f;
+      if (have_prev)
+        f = opt.safety * pow(rr, -Scalar(1) / Scalar(4 * p)) * pow(r_prev, -Scalar(1) / Scalar(4 * p)) *
+            pow(h_try / h_prev, -Scalar(0.25));
+      else
+        f = opt.safety * pow(rr, -Scalar(1) / Scalar(p));
+      f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
+      growth_cap = opt.max_factor;
+      ++sum.accepted;
+      sum.h_last = h_try;
+      const Scalar t_next = last ? t_end : traj.time + h_try;
+      if (!commit(fine, t_next)) break;
+      r_prev = rr;
+      h_prev = h_try;
+      have_prev = true;
+      // after a shortened last step, keep the controller's h for a continuation
+      h = (last ? h : h_try) * f;
+    }
+    sum.time = traj.time;
+  }
+
+  // ---- reversible mode [A5] ----------------------------------------------------------------
+  Scalar omega_floor() const {
+    using std::sqrt;
+    if (opt.omega_floor > 0) return opt.omega_floor;
+    const Vector3 wd = omega_rate(stepper.scene(), static_cast<const State<Scalar>&>(traj));
+    return std::max({Scalar(1e-3) * traj.omega.norm(), sqrt(wd.norm()), Scalar(1e-8)});
+  }
+  /// Q = √(|Ω|² + ω₀²) and G = d/dt log Q = Ω·Ω̇/Q² ([A5]).
+  void control(const State<Scalar>& s, Scalar w0, Scalar& Q, Scalar& G) const {
+    using std::sqrt;
+    const Scalar q2 = s.omega.squaredNorm() + w0 * w0;
+    Q = sqrt(q2);
+    G = s.omega.dot(omega_rate(stepper.scene(), s)) / q2;
+  }
+
+  void run_reversible(Scalar epsilon) {
+    using std::abs;
+    const Scalar dir = direction();
+    const Scalar w0 = omega_floor();
+    Scalar Q, G;
+    control(traj, w0, Q, G);
+    sum.epsilon = epsilon;
+    // ρ_{1/2} = Q(y0) + ½ ε G(y0); ρ_{n+3/2} = ρ_{n+1/2} + ε G(y_{n+1}) (backward: −G)
+    Scalar rho = Q + dir * epsilon * G / Scalar(2);
+    const Scalar rho_floor = Scalar(1e-3) * Q;
+    Traj next = traj;
+    std::int64_t steps = 0;
+    while (traj.time != t_end) {
+      if (++steps > opt.max_steps) {
+        sum.status = AdaptiveStatus::failed;
+        return;
+      }
+      bool last = false;
+      const Scalar h = clip(dir * epsilon / std::max(rho, rho_floor), last);
+      const Scalar t_next = last ? t_end : traj.time + h;
+      next = traj;
+      StepReport<Scalar> r = stepper.step(next, h);
+      sum.iterations += r.iterations;
+      ++sum.base_steps;
+      if (!r.ok()) {  // recovery by halves, as integrate(): the interval is kept
+        ++sum.failures;
+        sum.failure = r.status;
+        next = traj;
+        const IntegrationSummary<Scalar> s = integrate(stepper, next, t_next, h / Scalar(2));
+        sum.iterations += s.iterations;
+        sum.base_steps += s.steps + s.substeps;
+        if (!s.ok()) {
+          sum.failure = s.status;
+          sum.status = AdaptiveStatus::failed;
+          sum.time = traj.time;
+          return;
+        }
+      }
+      ++sum.accepted;
+      sum.h_last = h;
+      if (!commit(next, t_next)) break;
+      control(traj, w0, Q, G);
+      rho += dir * epsilon * G;
+    }
+    sum.time = traj.time;
+  }
+};
+
+template <class Stepper>
+constexpr bool is_processed() {
+  return requires(const Stepper& st, typename Stepper::TrajectoryType& tr) { st.advance(tr, typename Stepper::Scalar(1)); };
+}
+
+}  // namespace detail
+
+/// Integrates `state` (a State, or the stepper's Trajectory) from state.time to t_end with
+/// adaptive steps (file comment). observer(const DenseNode& a, const DenseNode& b) is called
+/// after each accepted step (LieHermite(a, b) is its interpolant; an observer that also
+/// takes a third argument gets the AdaptiveSummary so far); sink(index, state,
+/// terminal) for each event found. Throws invalid_input on bad options, a non-finite t_end
+/// or state, or bad events, before any step. Step failures never throw: see the summary.
+template <class Stepper, class StateT, class Observer = NoStepObserver, class Sink = NoEventSink>
+  requires std::derived_from<StateT, State<typename Stepper::Scalar>>
+AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& stepper, StateT& state,
+                                                            typename Stepper::Scalar t_end,
+                                                            const AdaptiveOptions<typename Stepper::Scalar>& options,
+                                                            Observer&& observer = {},
+                                                            const std::vector<Event<typename Stepper::Scalar>>* event_list = nullptr,
+                                                            Sink&& sink = {}) {
+  using Scalar = typename Stepper::Scalar;
+  static_assert(!detail::is_processed<Stepper>(),
+                "integrate_adaptive: the processed composition's processor is tied to h (a change of h costs "
+                "P_h'∘P_h⁻¹, 24 base steps, and its outputs would depend on the step history): run it at fixed h "
+                "with integrate(), or adapt a ComposedStepper");
+  if constexpr (detail::needs_trajectory<Stepper, StateT>()) {
+    auto traj = stepper.start(state);
+    const AdaptiveSummary<Scalar> sum =
+        integrate_adaptive(stepper, traj, t_end, options, std::forward<Observer>(observer), event_list, std::forward<Sink>(sink));
+    static_cast<State<Scalar>&>(state) = traj.state();
+    return sum;
+  } else {
+    options.validate();
+    if (!std::isfinite(static_cast<double>(t_end))) detail::fail("adaptive: t_end must be finite, got ", t_end);
+    state.validate();
+    detail::AdaptiveLoop<Stepper, StateT, Observer, Sink> loop(stepper, state, t_end, options, observer, sink, event_list);
+    loop.start_events();
+    loop.sum.time = state.time;
+    if (state.time == t_end) return loop.sum;
+    if (options.control == StepControl::tolerance) {
+      loop.run_tolerance();
+    } else {
+      Scalar epsilon = options.epsilon;
+      if (epsilon == Scalar(0)) {
+        // Pilot [A5]: 20 tolerance-mode steps on a copy; ε = mean of |h|·Q along them.
+        StateT pilot = state;
+        AdaptiveOptions<Scalar> po = options;
+        po.control = StepControl::tolerance;
+        po.max_steps = 20;
+        const Scalar w0 = loop.omega_floor();
+        Scalar acc = Scalar(0);
+        int n = 0;
+        auto pobs = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+          using std::abs;
+          using std::sqrt;
+          acc += abs(b.state.time - a.state.time) * sqrt(a.state.omega.squaredNorm() + w0 * w0);
+          ++n;
+        };
+        NoEventSink none;
+        detail::AdaptiveLoop<Stepper, StateT, decltype(pobs), NoEventSink> pl(stepper, pilot, t_end, po, pobs, none, nullptr);
+        pl.run_tolerance();
+        loop.sum.iterations += pl.sum.iterations;
+        loop.sum.base_steps += pl.sum.base_steps;
+        if (n == 0) detail::fail("adaptive: reversible mode could not set epsilon (the pilot took no step: ",
+                                 pl.sum.message(), "); give epsilon");
+        epsilon = acc / Scalar(n);
+      }
+      loop.run_reversible(epsilon);
+    }
+    loop.sum.time = state.time;
+    return loop.sum;
+  }
+}
+
+/// The result of solve(): SciPy's fields (t, y as states, sol, t_events, y_events, status)
+/// and the summary.
+template <class Scalar>
+struct AdaptiveRun {
+  std::vector<State<Scalar>> states;               ///< at t_eval, or at every accepted step
+  DenseSolution<Scalar> solution;                  ///< sol(t): anywhere in the span
+  std::vector<std::vector<State<Scalar>>> events;  ///< per event, the states where it occurred
+  AdaptiveSummary<Scalar> summary;
+  /// SciPy's success: the run did not fail.
+  bool success() const { return summary.ok(); }
+};
+
+/// SciPy-like solve: integrates `initial` to t_end (file comment) and returns the states at
+/// t_eval (sorted in the direction of the run, inside the span; empty: every accepted step),
+/// the dense solution (if `dense`), and the event states. Throws invalid_input on bad
+/// options, t_eval or events.
+template <class Stepper>
+AdaptiveRun<typename Stepper::Scalar> solve(const Stepper& stepper, const State<typename Stepper::Scalar>& initial,
+                                            typename Stepper::Scalar t_end,
+                                            const AdaptiveOptions<typename Stepper::Scalar>& options,
+                                            const std::vector<typename Stepper::Scalar>& t_eval = {},
+                                            const std::vector<Event<typename Stepper::Scalar>>& event_list = {},
+                                            bool dense = true) {
+  using Scalar = typename Stepper::Scalar;
+  options.validate();
+  const Scalar t0 = initial.time;
+  const bool forward = t_end >= t0;
+  for (std::size_t i = 0; i < t_eval.size(); ++i) {
+    const Scalar t = t_eval[i];
+    if (!std::isfinite(static_cast<double>(t)) || (forward ? (t < t0 || t > t_end) : (t > t0 || t < t_end)))
+      detail::fail("solve: t_eval[", i, "] = ", t, " is outside the span [", t0, ", ", t_end, "]");
+    if (i > 0 && (forward ? !(t > t_eval[i - 1]) : !(t < t_eval[i - 1])))
+      detail::fail("solve: t_eval must be strictly ", forward ? "increasing" : "decreasing", " (entry ", i, ")");
+  }
+  AdaptiveRun<Scalar> run;
+  run.solution.set_quintic(options.quintic);
+  run.events.resize(event_list.size());
+  std::size_t next = 0;
+  const bool every_step = t_eval.empty();
+  if (!every_step && t_eval[0] == t0) {
+    run.states.push_back(initial);
+    next = 1;
+  }
+  if (every_step) run.states.push_back(initial);
+  bool first = true;
+  auto observer = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+    if (dense) {
+      if (first) run.solution.push(a);
+      run.solution.push(b);
+    }
+    first = false;
+    if (every_step) {
+      run.states.push_back(b.state);
+      return;
+    }
+    const Scalar tb = b.state.time;
+    if (next < t_eval.size() && (forward ? t_eval[next] <= tb : t_eval[next] >= tb)) {
+      const LieHermite<Scalar> seg(a, b, options.quintic);
+      while (next < t_eval.size() && (forward ? t_eval[next] <= tb : t_eval[next] >= tb)) {
+        run.states.push_back(t_eval[next] == tb ? b.state : seg.state(t_eval[next]));
+        ++next;
+      }
+    }
+  };
+  auto sink = [&](int index, const State<Scalar>& s, bool) { run.events[static_cast<std::size_t>(index)].push_back(s); };
+  State<Scalar> s = initial;
+  run.summary = integrate_adaptive(stepper, s, t_end, options, observer, &event_list, sink);
+  if (dense && first) run.solution.push(dense_node(stepper.scene(), initial));
+  return run;
+}
+
+}  // namespace trompo

@@ -1,0 +1,237 @@
+#pragma once
+// Dense output on SO(3) (docs/theory.md §15 [D1]–[D3]): the state between two accepted steps.
+//
+//   DenseNode<double> a = dense_node(scene, state_n), b = dense_node(scene, state_n1);
+//   LieHermite<double> seg(a, b);            // the step [t_n, t_n + h]
+//   State<double> s = seg.state(t);          // any t in the step
+//
+// On [t_n, t_n + h], θ = (t − t_n)/h, the attitude is Λ(θ) = Λ_n exp(ξ(θ)^) with ξ a
+// polynomial in the Lie algebra: Λ(θ) is a rotation for every θ (a unit quaternion times
+// the exponential of a vector), whatever ξ is: orthogonal by construction [D1]. ξ is the
+// Hermite polynomial with ξ(0) = 0, ξ(1) = φ = log(Λ_nᵀΛ_{n+1}), its θ-derivatives
+// ξ' = h T(ξ)⁻¹ Ω from the kinematics Λ̇ = ΛΩ̂ (T the right tangent of exp), and, for the
+// quintic, its second derivatives ξ'' = h dT⁻¹(ξ)[ξ'] Ω + h² T(ξ)⁻¹ Ω̇ [D2]. Ω is the
+// Hermite polynomial of the same degree through Ω, hΩ̇ (and h²Ω̈) at both ends [D3].
+// Interpolation error: O(h⁴) (cubic) and O(h⁶) (quintic) per step, so the quintic does not
+// spoil an order-6 solution. Interpolated states are not products of steps: H and μ there
+// carry an O(h^q) error (the nodes keep them exactly).
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "trompo/errors.hpp"
+#include "trompo/lie/series.hpp"
+#include "trompo/lie/so3.hpp"
+#include "trompo/model/state.hpp"
+
+namespace trompo {
+
+/// A state with the rates the interpolant needs: Ω̇ and Ω̈ at (Λ, Ω, t).
+template <class Scalar>
+struct DenseNode {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  State<Scalar> state;
+  Vector3 omega_dot = Vector3::Zero();   ///< Ω̇ = J⁻¹(Π × Ω + τ)       [D3]
+  Vector3 omega_ddot = Vector3::Zero();  ///< Ω̈ = J⁻¹(JΩ̇ × Ω + Π × Ω̇ + τ̇)
+};
+
+/// Ω̇ of the scene at (Λ, Ω, t): the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r.
+template <class Scene>
+Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene, const State<typename Scene::Scalar>& s) {
+  using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
+  Vector3 rhs = scene.momentum(s.omega).cross(s.omega);
+  if constexpr (Scene::has_potential || Scene::has_applied_torque)
+    rhs += scene.body_torque(s.rotation.matrix(), s.omega, s.time);
+  return scene.body().inertia_inverse() * rhs;
+}
+
+/// The node of a state: Ω̇ from the Euler equation, Ω̈ from its time derivative, whose
+/// torque rate τ̇ is a central difference along the flow (step δ ~ ε^{1/3}/rate, so τ̇ is
+/// accurate to ~1e-11 relative; no torque: exact).
+template <class Scene>
+DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typename Scene::Scalar>& s) {
+  using Scalar = typename Scene::Scalar;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  DenseNode<Scalar> n;
+  n.state = s;
+  n.omega_dot = omega_rate(scene, s);
+  const auto& J = scene.body().inertia();
+  Vector3 rhs = (J * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
+  if constexpr (Scene::has_potential || Scene::has_applied_torque) {
+    using std::sqrt;
+    const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
+    const Scalar delta = Scalar(6e-6) / rate;
+    State<Scalar> p = s, m = s;
+    p.rotation = s.rotation * SO3<Scalar>::exp(delta * s.omega);
+    m.rotation = s.rotation * SO3<Scalar>::exp(-delta * s.omega);
+    p.omega = s.omega + delta * n.omega_dot;
+    m.omega = s.omega - delta * n.omega_dot;
+    // τ is in the body frame, which turns with Ω: τ̇_body = (τ(+δ) − τ(−δ))/2δ.
+    rhs += (scene.body_torque(p.rotation.matrix(), p.omega, s.time + delta) -
+            scene.body_torque(m.rotation.matrix(), m.omega, s.time - delta)) /
+           (Scalar(2) * delta);
+  }
+  n.omega_ddot = scene.body().inertia_inverse() * rhs;
+  return n;
+}
+
+namespace detail {
+/// d/dθ of c(θ) = (1 − (θ/2)cot(θ/2))/θ², divided by θ (the x̂² coefficient of T⁻¹):
+/// series 1/360 + θ²/7560 + θ⁴/201600 below θ = 0.05 (truncation < 1e-15 relative).
+template <class Scalar>
+Scalar inverse_tangent_coefficient_prime_over_theta(Scalar theta) {
+  using std::cos;
+  using std::sin;
+  if (theta < Scalar(0.05)) {
+    const Scalar x = theta * theta;
+    return Scalar(1.0L / 360) + x * (Scalar(1.0L / 7560) + x * Scalar(1.0L / 201600));
+  }
+  const Scalar half = theta / 2;
+  const Scalar f = Scalar(1) - half * cos(half) / sin(half);
+  const Scalar fp = -cos(half) / (Scalar(2) * sin(half)) + half / (Scalar(2) * sin(half) * sin(half));
+  return (fp / (theta * theta) - Scalar(2) * f / (theta * theta * theta)) / theta;
+}
+
+/// The derivative of T(x)⁻¹ w along v: d/ds [T(x + s v)⁻¹ w] at s = 0, with
+/// T⁻¹ = I + ½ x̂ + c(θ) x̂² ([D2]).
+template <class Scalar>
+Eigen::Matrix<Scalar, 3, 1> inverse_tangent_derivative(const Eigen::Matrix<Scalar, 3, 1>& x,
+                                                       const Eigen::Matrix<Scalar, 3, 1>& v,
+                                                       const Eigen::Matrix<Scalar, 3, 1>& w) {
+  const Scalar theta = x.norm();
+  const Scalar c = inverse_tangent_coefficient(theta);
+  const Scalar cp = inverse_tangent_coefficient_prime_over_theta(theta);  // c'(θ)/θ
+  return v.cross(w) / Scalar(2) + cp * x.dot(v) * x.cross(x.cross(w)) +
+         c * (v.cross(x.cross(w)) + x.cross(v.cross(w)));
+}
+}  // namespace detail
+
+/// The Lie–Hermite interpolant of one step (file comment, [D1]–[D3]).
+template <class Scalar>
+class LieHermite {
+ public:
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+
+  LieHermite() = default;
+  /// The step from node a to node b (h = t_b − t_a ≠ 0, either sign); `quintic` false: cubic.
+  LieHermite(const DenseNode<Scalar>& a, const DenseNode<Scalar>& b, bool quintic = true)
+      : t0_(a.state.time), h_(b.state.time - a.state.time), rotation0_(a.state.rotation), quintic_(quintic) {
+    const Scalar h = h_;
+    Vector3 phi = (a.state.rotation.inverse() * b.state.rotation).log();
+    // The branch of log nearest the mean rotation h(Ω_a + Ω_b)/2 when the step turns far [D1].
+    const Vector3 guess = h * (a.state.omega + b.state.omega) / Scalar(2);
+    const Scalar angle = phi.norm();
+    if (angle > Scalar(0)) {
+      const Vector3 other = phi - (Scalar(2) * Scalar(EIGEN_PI) / angle) * phi;
+      if ((other - guess).norm() < (phi - guess).norm()) phi = other;
+    }
+    xi1_ = phi;
+    d0_ = h * a.state.omega;                                                   // ξ'(0) = hΩ_a
+    d1_ = h * (SO3<Scalar>::right_tangent_inverse(phi) * b.state.omega);      // ξ'(1) = h T(φ)⁻¹Ω_b
+    s0_ = h * h * a.omega_dot;                                                 // ξ''(0) = h²Ω̇_a
+    s1_ = h * detail::inverse_tangent_derivative(phi, d1_, b.state.omega) +   // ξ''(1)
+          h * h * (SO3<Scalar>::right_tangent_inverse(phi) * b.omega_dot);
+    w0_ = a.state.omega;
+    w1_ = b.state.omega;
+    wd0_ = h * a.omega_dot;
+    wd1_ = h * b.omega_dot;
+    wdd0_ = h * h * a.omega_ddot;
+    wdd1_ = h * h * b.omega_ddot;
+    t1_ = b.state.time;
+    rotation1_ = b.state.rotation;
+  }
+
+  /// The state at time t (t in the step; outside it the polynomial extrapolates).
+  State<Scalar> state(Scalar t) const {
+    State<Scalar> s;
+    if (t == t1_) {
+      s.rotation = rotation1_;  // the node itself
+      s.omega = w1_;
+      s.time = t1_;
+      return s;
+    }
+    const Scalar th = (t - t0_) / h_;
+    Scalar b[6];
+    basis(th, b);
+    const Vector3 xi = b[1] * d0_ + b[2] * s0_ + b[3] * s1_ + b[4] * d1_ + b[5] * xi1_;
+    s.rotation = rotation0_ * SO3<Scalar>::exp(xi);
+    s.omega = b[0] * w0_ + b[1] * wd0_ + b[2] * wdd0_ + b[3] * wdd1_ + b[4] * wd1_ + b[5] * w1_;
+    s.time = t;
+    return s;
+  }
+
+  /// Start and end time of the step.
+  Scalar t_start() const { return t0_; }
+  Scalar t_end() const { return t1_; }
+
+ private:
+  /// Hermite basis on [0, 1]: p = p0 b0 + p0' b1 + p0'' b2 + p1'' b3 + p1' b4 + p1 b5
+  /// (quintic), or the cubic one with b2 = b3 = 0 [D2].
+  void basis(Scalar x, Scalar b[6]) const {
+    const Scalar x2 = x * x, x3 = x2 * x;
+    if (quintic_) {
+      const Scalar x4 = x3 * x, x5 = x4 * x;
+      b[0] = 1 - 10 * x3 + 15 * x4 - 6 * x5;
+      b[1] = x - 6 * x3 + 8 * x4 - 3 * x5;
+      b[2] = (x2 - 3 * x3 + 3 * x4 - x5) / 2;
+      b[3] = (x3 - 2 * x4 + x5) / 2;
+      b[4] = -4 * x3 + 7 * x4 - 3 * x5;
+      b[5] = 10 * x3 - 15 * x4 + 6 * x5;
+    } else {
+      b[0] = 1 - 3 * x2 + 2 * x3;
+      b[1] = x - 2 * x2 + x3;
+      b[2] = b[3] = Scalar(0);
+      b[4] = x3 - x2;
+      b[5] = 3 * x2 - 2 * x3;
+    }
+  }
+
+  Scalar t0_ = Scalar(0), t1_ = Scalar(0), h_ = Scalar(1);
+  SO3<Scalar> rotation0_, rotation1_;
+  bool quintic_ = true;
+  Vector3 xi1_ = Vector3::Zero(), d0_ = Vector3::Zero(), d1_ = Vector3::Zero(), s0_ = Vector3::Zero(),
+          s1_ = Vector3::Zero();
+  Vector3 w0_ = Vector3::Zero(), w1_ = Vector3::Zero(), wd0_ = Vector3::Zero(), wd1_ = Vector3::Zero(),
+          wdd0_ = Vector3::Zero(), wdd1_ = Vector3::Zero();
+};
+
+/// The dense solution of a run: the accepted steps' nodes, and the state anywhere in the
+/// span by the interpolant of the step that holds t (solution(t)).
+template <class Scalar>
+class DenseSolution {
+ public:
+  /// Appends the node that ends the next accepted step (the first node is the start).
+  void push(const DenseNode<Scalar>& node) { nodes_.push_back(node); }
+  /// Whether the interpolant is quintic (else cubic).
+  void set_quintic(bool q) { quintic_ = q; }
+  /// The nodes (t_0, t_1, …, the end).
+  const std::vector<DenseNode<Scalar>>& nodes() const { return nodes_; }
+  /// The first and last time.
+  Scalar t_start() const { return nodes_.empty() ? Scalar(0) : nodes_.front().state.time; }
+  Scalar t_end() const { return nodes_.empty() ? Scalar(0) : nodes_.back().state.time; }
+
+  /// The state at t, which must lie in the span (throws invalid_input otherwise). At a node
+  /// time, the node itself (bit for bit).
+  State<Scalar> operator()(Scalar t) const {
+    if (nodes_.empty()) detail::fail("solution: empty (no run stored)");
+    const Scalar a = t_start(), b = t_end();
+    const bool forward = b >= a;
+    if (!std::isfinite(static_cast<double>(t)) || (forward ? (t < a || t > b) : (t > a || t < b)))
+      detail::fail("solution: t = ", t, " is outside the span [", a, ", ", b, "]");
+    if (nodes_.size() == 1) return nodes_.front().state;
+    // First node at or beyond t in the direction of the run.
+    const auto it = std::lower_bound(nodes_.begin(), nodes_.end(), t, [forward](const DenseNode<Scalar>& n, Scalar x) {
+      return forward ? n.state.time < x : n.state.time > x;
+    });
+    if (it->state.time == t) return it->state;
+    return LieHermite<Scalar>(*(it - 1), *it, quintic_).state(t);
+  }
+
+ private:
+  std::vector<DenseNode<Scalar>> nodes_;
+  bool quintic_ = true;
+};
+
+}  // namespace trompo

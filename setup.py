@@ -1,0 +1,54 @@
+"""Builds the Python module trompo for `pip install .` (pyproject.toml): the extension
+trompo._trompo from python/trompo_module.cpp (header-only C++20: Eigen 3.4, and Boost.Math
+for the closed forms when its headers are found), and python/trompo/__init__.py with the
+interpreter it was built for filled in (as CMake's configure_file does)."""
+import os
+import sys
+
+from pybind11.setup_helpers import Pybind11Extension, build_ext
+from setuptools import setup
+from setuptools.command.build_py import build_py
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def first_dir(*candidates):
+    return next((d for d in candidates if os.path.isdir(d)), None)
+
+
+eigen = first_dir(os.environ.get("EIGEN3_INCLUDE_DIR", ""), "/usr/include/eigen3", "/usr/local/include/eigen3")
+if eigen is None:
+    sys.exit("trompo: Eigen 3.4 headers not found (set EIGEN3_INCLUDE_DIR)")
+macros = [("TROMPO_VERSION", '"0.1.0"')]
+if os.path.isfile("/usr/include/boost/math/special_functions/ellint_rf.hpp"):
+    macros.append(("TROMPO_HAVE_EXACT", "1"))
+
+ext = Pybind11Extension(
+    "trompo._trompo",
+    [os.path.join("python", "trompo_module.cpp")],
+    include_dirs=[os.path.join(HERE, "include"), os.path.join(HERE, "tools"), eigen],
+    define_macros=macros,
+    cxx_std=20,
+    extra_compile_args=["-O2"],
+)
+
+
+class BuildPy(build_py):
+    """Copies python/trompo with @Python3_EXECUTABLE@ replaced by this interpreter."""
+
+    def run(self):
+        super().run()
+        target = os.path.join(self.build_lib, "trompo", "__init__.py")
+        with open(target) as f:
+            text = f.read()
+        with open(target, "w") as f:
+            f.write(text.replace("@Python3_EXECUTABLE@", sys.executable))
+
+
+setup(
+    packages=["trompo"],
+    package_dir={"": "python"},
+    ext_modules=[ext],
+    cmdclass={"build_ext": build_ext, "build_py": BuildPy},
+    zip_safe=False,
+)

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# trompo-simulate --rtol (docs/adaptive.md): adaptive steps keep H and mu of Simo-kappa;
+# --t-eval writes rows at exactly those times and only those; --event rows in --event-csv,
+# a terminal event ends the run at the event's time; the one-line summary on stderr;
+# bad combinations exit 2 with one line and no rows.
+set -u
+sim="$1"
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+
+"$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 >"$tmp/a.csv" 2>"$tmp/a.err"; rc=$?
+check "adaptive run: exit 0" '[ $rc -eq 0 ]'
+check "summary line on stderr" 'grep -q "adaptive (tolerance, rtol 1e-08, atol 1e-08): [0-9]* accepted, [0-9]* rejected, [0-9]* failed attempts, [0-9]* Newton iterations; reached t_end" "$tmp/a.err" && [ $(wc -l <"$tmp/a.err") -eq 1 ]'
+check "ends at t_end" '[ "$(tail -1 "$tmp/a.csv" | cut -d, -f1)" = "2" ]'
+check "steps are not uniform" '[ $(awk -F, "NR>2 {printf \"%.6f\\n\", \$1 - p} NR>1 {p=\$1}" "$tmp/a.csv" | sort -u | wc -l) -gt 3 ]'
+check "H and mu constant to 1e-13 relative" 'awk -F, "NR==2 {H=\$14; m=\$15} NR>2 {d=(\$14-H)/H; e=(\$15-m)/m; if (d<0) d=-d; if (e<0) e=-e; if (d>1e-13 || e>1e-13) bad=1} END {exit bad}" "$tmp/a.csv"'
+
+"$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --t-eval 0,0.25,0.5,1.75 >"$tmp/t.csv" 2>/dev/null; rc=$?
+check "--t-eval: exactly those times" '[ $rc -eq 0 ] && [ "$(tail -n +2 "$tmp/t.csv" | cut -d, -f1 | tr "\n" " ")" = "0 0.25 0.5 1.75 " ]'
+printf '0.125\n\n0.375\n' >"$tmp/times.txt"
+"$sim" --case ht0 --t-end 2 --rtol 1e-6 --t-eval @"$tmp/times.txt" >"$tmp/f.csv" 2>/dev/null; rc=$?
+check "--t-eval @FILE" '[ $rc -eq 0 ] && [ "$(tail -n +2 "$tmp/f.csv" | cut -d, -f1 | tr "\n" " ")" = "0.125 0.375 " ]'
+
+"$sim" --case ht0 --t-end 5 --order 6 --rtol 1e-10 --atol 1e-10 --event nutation-max --event nutation-min:terminal:4 \
+  --event-csv "$tmp/ev.csv" >"$tmp/e.csv" 2>"$tmp/e.err"; rc=$?
+check "events: exit 0, stopped by the terminal event" '[ $rc -eq 0 ] && grep -q "stopped by a terminal event" "$tmp/e.err"'
+check "event csv header" '[ "$(head -1 "$tmp/ev.csv")" = "event,t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations" ]'
+check "4 minima and the maxima between them" '[ $(grep -c "^nutation-min," "$tmp/ev.csv") -eq 4 ] && [ $(grep -c "^nutation-max," "$tmp/ev.csv") -eq 4 ]'
+check "the run ends at the 4th minimum" '[ "$(tail -1 "$tmp/e.csv" | cut -d, -f1)" = "$(grep "^nutation-min," "$tmp/ev.csv" | tail -1 | cut -d, -f2)" ]'
+# HT0: tilt minima at t = k*T (T the nutation period, t = 0 being one), maxima at (k - 1/2)*T
+check "minima evenly spaced (one nutation period, 1e-9)" 'grep "^nutation-min," "$tmp/ev.csv" | cut -d, -f2 | awk "{t[NR]=\$1} END {T=t[1]; for (i=2;i<=NR;i++) {d=t[i]-i*T; if (d<0) d=-d; if (d>1e-9*i) exit 1}}"'
+
+bad() {  # bad NAME ARGS...: exit 2, one line on stderr, nothing on stdout
+  local name="$1"; shift
+  "$sim" "$@" >"$tmp/bad.out" 2>"$tmp/bad.err"; local rc=$?
+  check "$name: exit 2, one line, no rows" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.out" ] && [ $(wc -l <"$tmp/bad.err") -eq 1 ]'
+}
+bad "--rtol 0" --case ht1 --rtol 0
+bad "--rtol nan" --case ht1 --rtol nan
+bad "--atol -1" --case ht1 --rtol 1e-6 --atol -1
+bad "--atol without --rtol" --case ht1 --atol 1e-6
+bad "--t-eval without --rtol" --case ht1 --t-eval 0.1
+bad "--t-eval outside" --case ht1 --rtol 1e-6 --t-eval 0.5,20
+bad "--t-eval unsorted" --case ht1 --rtol 1e-6 --t-eval 0.5,0.2
+bad "--t-eval with --every" --case ht1 --rtol 1e-6 --t-eval 0.5 --every 2
+bad "--control unknown" --case ht1 --rtol 1e-6 --control fast
+bad "--event unknown" --case ht1 --rtol 1e-6 --event wobble
+bad "--event nutation on a free body" --case fb1 --rtol 1e-6 --event nutation-max
+bad "--event-csv without --event" --case ht1 --rtol 1e-6 --event-csv "$tmp/x.csv"
+bad "--rtol with the processed composition" --case ht1 --rtol 1e-6 --composition blanes-casas-murua-13
+bad "--rtol with --scheme exact" --case ht1 --rtol 1e-6 --scheme exact
+check "bad: the reason names the flag" 'grep -q "rtol" "$tmp/bad.err"'
+
+echo "$fails failure(s)"
+[ "$fails" -eq 0 ]

@@ -1,0 +1,412 @@
+// The adaptive driver, its dense output and events (include/trompo/drivers/adaptive.hpp,
+// dense_output.hpp; docs/adaptive.md, docs/theory.md §15):
+//   1. tolerance proportionality against the closed forms (HT0, HT1, FB1 at orders 2, 4, 6);
+//   2. H and μ exact for Simo-κ under adaptive steps, in both controls;
+//   3. dense output: orthogonal, and of order 6 (quintic) / 4 (cubic) per step, measured;
+//   4. events against the Lagrange top's closed-form turning points; terminal events;
+//   5. backward runs, the failure contract, bad input.
+// Each case prints what it measured.
+#include <catch2/catch.hpp>
+
+#ifdef TROMPO_HAVE_BOOST
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "trompo/drivers/adaptive.hpp"
+#include "trompo/exact/free_body.hpp"
+#include "trompo/exact/lagrange_top.hpp"
+#include "trompo/trompo.hpp"
+
+using namespace trompo;
+using V3 = Eigen::Vector3d;
+using M3 = Eigen::Matrix3d;
+
+namespace {
+
+using Top = HeavyTop<double>;
+using Free = FreeScene<double>;
+
+/// The exact state of a standard case at t (HT0/HT1: Lagrange top; FB1: free body).
+struct Exact {
+  std::function<M3(double)> rotation;
+  std::function<V3(double)> omega;
+};
+template <class Case>
+Exact exact_of(const Case& c) {
+  const M3 L0 = c.initial.rotation.matrix();
+  const V3 W0 = c.initial.omega;
+  if constexpr (std::is_same_v<typename Case::SceneT, Top>) {
+    const auto& g = c.scene.template effect<UniformGravity<double>>();
+    const M3 J = c.scene.body().inertia();
+    auto top = std::make_shared<exact::LagrangeTop>(J(0, 0), J(2, 2), g.Mgl(), L0, W0, g.up());
+    return {[top](double t) { return top->rotation(t); }, [top](double t) { return top->omega(t); }};
+  } else {
+    auto fb = std::make_shared<exact::FreeBody>(c.scene.body().inertia().diagonal(), L0, W0);
+    return {[fb](double t) { return fb->rotation(t); }, [fb](double t) { return fb->omega(t); }};
+  }
+}
+
+/// max(attitude angle, |ΔΩ|/|Ω|) against the exact state.
+double state_error(const State<double>& s, const Exact& ex) {
+  const double angle = SO3<double>::from_matrix(ex.rotation(s.time).transpose() * s.rotation.matrix(), 1e-8).log().norm();
+  const V3 w = ex.omega(s.time);
+  return std::max(angle, (s.omega - w).norm() / w.norm());
+}
+
+template <class Case>
+void proportionality(const Case& c, double t_end, int order, double lo, double hi) {
+  ComposedStepper<SimoKappa, typename Case::SceneT> stepper(SimoKappa{}, c.scene, order);
+  const Exact ex = exact_of(c);
+  std::vector<double> tols, errs;
+  for (double tol = lo; tol >= hi * 0.999; tol /= 10) {
+    AdaptiveOptions<double> opt;
+    opt.rtol = opt.atol = tol;
+    State<double> s = c.initial;
+    const AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, t_end, opt);
+    REQUIRE(sum.ok());
+    REQUIRE(s.time == t_end);
+    const double e = state_error(s, ex);
+    std::printf("%s order %d rtol %.0e: steps %lld rejected %lld error %.3e error/tol %.2f\n", c.name, order, tol,
+                static_cast<long long>(sum.accepted), static_cast<long long>(sum.rejected), e, e / tol);
+    CHECK(e / tol >= 0.1);
+    CHECK(e / tol <= 30);
+    tols.push_back(std::log10(tol));
+    errs.push_back(std::log10(e));
+  }
+  // least-squares slope of log error against log tol
+  const double n = static_cast<double>(tols.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < tols.size(); ++i) {
+    sx += tols[i];
+    sy += errs[i];
+    sxx += tols[i] * tols[i];
+    sxy += tols[i] * errs[i];
+  }
+  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  std::printf("%s order %d: log-log slope %.3f\n", c.name, order, slope);
+  CHECK(slope >= 0.85);
+  CHECK(slope <= 1.15);
+}
+
+}  // namespace
+
+TEST_CASE("adaptive: end error proportional to the tolerance (HT0, HT1, FB1 at orders 2, 4, 6)", "[adaptive]") {
+  // Order 4 over rtol 1e-4 … 1e-10 on all three. Order 6: HT0 over 1e-4 … 1e-10; HT1 and
+  // FB1 over 1e-6 … 1e-10: above that their steps are held by max_rotation (3 rad per
+  // step; HT1 spins at 50 rad/s), so the error sits below the tolerance (HT1 at 1e-4:
+  // 17 steps, error 2e-6). Order 2 over 1e-4 … 1e-8 (its 1e-10 run takes ~10⁶ steps:
+  // too slow for the suite).
+  proportionality(cases::ht0(), 1.0, 4, 1e-4, 1e-10);
+  proportionality(cases::ht1(), 1.0, 4, 1e-4, 1e-10);
+  proportionality(cases::fb1(), 10.0, 4, 1e-4, 1e-10);
+  proportionality(cases::ht0(), 1.0, 6, 1e-4, 1e-10);
+  proportionality(cases::ht1(), 1.0, 6, 1e-6, 1e-10);
+  proportionality(cases::fb1(), 10.0, 6, 1e-6, 1e-10);
+  proportionality(cases::ht0(), 1.0, 2, 1e-4, 1e-8);
+  proportionality(cases::ht1(), 1.0, 2, 1e-4, 1e-8);
+  proportionality(cases::fb1(), 10.0, 2, 1e-4, 1e-8);
+}
+
+
+TEST_CASE("adaptive: H and mu exact for Simo-kappa under adaptive steps", "[adaptive]") {
+  for (int order : {2, 4, 6}) {
+    const auto c = cases::ht0();
+    ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, order);
+    const double H0 = c.scene.energy(c.initial), mu0 = c.scene.momentum_map(c.initial);
+    for (StepControl control : {StepControl::tolerance, StepControl::reversible}) {
+      AdaptiveOptions<double> opt;
+      opt.rtol = opt.atol = 1e-6;
+      opt.control = control;
+      double dH = 0, dmu = 0;
+      auto obs = [&](const DenseNode<double>&, const DenseNode<double>& b) {
+        dH = std::max(dH, std::abs(c.scene.energy(b.state) - H0) / std::abs(H0));
+        dmu = std::max(dmu, std::abs(c.scene.momentum_map(b.state) - mu0) / std::abs(mu0));
+      };
+      State<double> s = c.initial;
+      // order 2 to t = 1: its 10⁵ steps to t = 10 let μ's round-off walk to ~5e-13
+      const auto sum = integrate_adaptive(stepper, s, order == 2 ? 1.0 : 10.0, opt, obs);
+      REQUIRE(sum.ok());
+      std::printf("HT0 order %d %s: %lld steps, max |dH/H| %.2e, |dmu/mu| %.2e\n", order,
+                  control == StepControl::tolerance ? "tolerance" : "reversible", static_cast<long long>(sum.accepted),
+                  dH, dmu);
+      CHECK(dH <= 1e-13);
+      CHECK(dmu <= 1e-13);
+    }
+  }
+}
+
+TEST_CASE("adaptive: the reversible control keeps the splitting's energy band", "[adaptive]") {
+  // Hairer–Söderlind [A5] on the splitting (HT1): the energy error stays in
+  // a band, whose width after 10x more steps stays within 2x.
+  const auto c = cases::ht1();
+  Stepper<Splitting, Top> stepper(Splitting{}, c.scene);
+  const double H0 = c.scene.energy(c.initial);
+  AdaptiveOptions<double> opt;
+  opt.control = StepControl::reversible;
+  opt.epsilon = 0.3;  // rotation per step
+  double band_short = 0, band = 0;
+  auto obs = [&](const DenseNode<double>&, const DenseNode<double>& b) {
+    const double e = std::abs(c.scene.energy(b.state) - H0) / H0;
+    band = std::max(band, e);
+  };
+  State<double> s = c.initial;
+  auto sum = integrate_adaptive(stepper, s, 10.0, opt, obs);
+  REQUIRE(sum.ok());
+  band_short = band;
+  const auto n_short = sum.accepted;
+  sum = integrate_adaptive(stepper, s, 100.0, opt, obs);
+  REQUIRE(sum.ok());
+  std::printf("splitting HT1 reversible eps 0.3: band %.3e after %lld steps, %.3e after %lld more\n", band_short,
+              static_cast<long long>(n_short), band, static_cast<long long>(sum.accepted));
+  CHECK(band <= 2 * band_short);
+  CHECK(band_short > 0);
+}
+
+namespace {
+/// The node of the exact Lagrange top at t (its Ω̇, Ω̈ from the scene).
+DenseNode<double> exact_node(const Top& scene, const exact::LagrangeTop& top, double t) {
+  State<double> s;
+  s.rotation = SO3<double>::from_matrix(top.rotation(t), 1e-10);
+  s.omega = top.omega(t);
+  s.time = t;
+  return dense_node(scene, s);
+}
+/// The closed-form tilt maxima (or minima) of a Lagrange top started at a turning point
+/// (HT0, HT1: released with Ω ∥ E), in (lo, hi) (either order), sorted in the direction lo → hi.
+std::vector<double> turning_points(const exact::LagrangeTop& top, double lo, double hi, bool maxima) {
+  // j0: the turning point at t = 0, a tilt minimum (the top starts falling)
+  long j0 = 0;
+  for (long j = -8; j <= 8; ++j)
+    if (std::abs(top.tilt_turning_time(j)) < std::abs(top.tilt_turning_time(j0))) j0 = j;
+  std::vector<double> out;
+  for (long j = j0 - 4000; j <= j0 + 4000; ++j) {
+    const bool is_max = ((j - j0) % 2) != 0;
+    const double t = top.tilt_turning_time(j);
+    if (is_max == maxima && t > std::min(lo, hi) && t < std::max(lo, hi) && std::abs(t) > 1e-9) out.push_back(t);
+  }
+  if (hi < lo) std::reverse(out.begin(), out.end());
+  return out;
+}
+}  // namespace
+
+TEST_CASE("dense output: orthogonal, and of order 6 (quintic) and 4 (cubic) per step", "[adaptive][dense]") {
+  const auto c = cases::ht0();
+  const auto& g = c.scene.effect<UniformGravity<double>>();
+  const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+  for (bool quintic : {true, false}) {
+    double prev = 0;
+    for (double h : {0.04, 0.02, 0.01}) {
+      const double t0 = 0.3;
+      const LieHermite<double> seg(exact_node(c.scene, top, t0), exact_node(c.scene, top, t0 + h), quintic);
+      double err = 0, orth = 0;
+      for (int i = 1; i < 8; ++i) {
+        const double t = t0 + h * i / 8.0;
+        const State<double> s = seg.state(t);
+        const M3 R = s.rotation.matrix();
+        orth = std::max(orth, (R.transpose() * R - M3::Identity()).norm());
+        const double ea = SO3<double>::from_matrix(top.rotation(t).transpose() * R, 1e-8).log().norm();
+        err = std::max({err, ea, (s.omega - top.omega(t)).norm() / 50.0});
+      }
+      std::printf("%s h %.3f: interpolation error %.3e (ratio %.2f), |RtR - I| %.1e\n", quintic ? "quintic" : "cubic", h,
+                  err, prev > 0 ? prev / err : 0.0, orth);
+      CHECK(orth <= 1e-14);
+      if (prev > 0) {
+        const double q = std::log2(prev / err);
+        CHECK(q >= (quintic ? 5.5 : 3.5));
+        CHECK(q <= (quintic ? 6.6 : 4.6));
+      }
+      prev = err;
+    }
+  }
+}
+
+TEST_CASE("events: nutation extrema of HT0 against the closed form", "[adaptive][events]") {
+  const auto c = cases::ht0();
+  const auto& g = c.scene.effect<UniformGravity<double>>();
+  const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+  const double period = top.nutation_period();
+  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 6);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-10;
+  // 100 periods: 100 maxima and 100 minima after t = 0.
+  const double t_end = 100.25 * period;
+  const std::vector<Event<double>> ev{events::by_name(c.scene, "nutation-max"), events::by_name(c.scene, "nutation-min")};
+  const AdaptiveRun<double> run = solve(stepper, c.initial, t_end, opt, {}, ev, false);
+  REQUIRE(run.success());
+  const std::vector<double> maxima = turning_points(top, 0, t_end, true), minima = turning_points(top, 0, t_end, false);
+  std::printf("HT0: nutation period %.15f s; %zu maxima, %zu minima expected; found %zu, %zu in %lld steps\n", period,
+              maxima.size(), minima.size(), run.events[0].size(), run.events[1].size(),
+              static_cast<long long>(run.summary.accepted));
+  REQUIRE(maxima.size() + minima.size() >= 200);
+  REQUIRE(run.events[0].size() == maxima.size());
+  REQUIRE(run.events[1].size() == minima.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < maxima.size(); ++i) {
+    worst = std::max(worst, std::abs(run.events[0][i].time - maxima[i]));
+    if (i % 20 == 0) std::printf("  max %zu: t %.12f error %.2e\n", i, maxima[i], run.events[0][i].time - maxima[i]);
+  }
+  for (std::size_t i = 0; i < minima.size(); ++i) worst = std::max(worst, std::abs(run.events[1][i].time - minima[i]));
+  std::printf("HT0: largest event time error %.3e s\n", worst);
+  // The event times carry the solution's phase error, which grows like tol·t (error per
+  // unit step, [A2]): 1.4e-8 s at t = 118 for rtol 1e-10 (the 1e-10 s target needs
+  // a tighter tolerance). Each error within 2e-10·(1 + t) s.
+  for (std::size_t i = 0; i < maxima.size(); ++i) CHECK(std::abs(run.events[0][i].time - maxima[i]) <= 2e-10 * (1 + maxima[i]));
+  for (std::size_t i = 0; i < minima.size(); ++i) CHECK(std::abs(run.events[1][i].time - minima[i]) <= 2e-10 * (1 + minima[i]));
+}
+
+TEST_CASE("events: a terminal event ends the run with a real step, t_eval and solution(t)", "[adaptive][events]") {
+  const auto c = cases::ht0();
+  const auto& g = c.scene.effect<UniformGravity<double>>();
+  const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 4);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-9;
+  std::vector<Event<double>> ev{events::nutation(c.scene, true, 3)};
+  const std::vector<double> t_eval{0.0, 0.1, 0.2, 0.5, 5.0};
+  const AdaptiveRun<double> run = solve(stepper, c.initial, 10.0, opt, t_eval, ev);
+  REQUIRE(run.summary.status == AdaptiveStatus::event);
+  REQUIRE(run.events[0].size() == 3);
+  const double t3 = turning_points(top, 0, 10, true).at(2);  // the third maximum after t = 0
+  const State<double>& end = run.events[0][2];
+  std::printf("terminal: event at %.15f, closed form %.15f, run ended at %.15f\n", end.time, t3, run.summary.time);
+  CHECK(std::abs(end.time - t3) <= 1e-8);  // the solution's phase error at rtol 1e-9, t ≈ 3
+  CHECK(run.summary.time == end.time);
+  CHECK(run.solution.t_end() == end.time);
+  // the real step keeps H and μ
+  CHECK(std::abs(c.scene.energy(end) / c.scene.energy(c.initial) - 1) <= 1e-13);
+  CHECK(std::abs(c.scene.momentum_map(end) / c.scene.momentum_map(c.initial) - 1) <= 1e-13);
+  // t_eval: rows only up to the event (5.0 is beyond it), at exactly those times
+  REQUIRE(run.states.size() == 4);
+  for (std::size_t i = 0; i < 4; ++i) {
+    CHECK(run.states[i].time == t_eval[i]);
+    CHECK(state_error(run.states[i], exact_of(c)) <= 1e-7);
+  }
+  // solution(t) anywhere, orthogonal, near the exact solution; outside: invalid_input
+  const Exact ex = exact_of(c);
+  for (double t : {0.0, 0.0123, 0.5, 1.0, end.time}) {
+    const State<double> s = run.solution(t);
+    CHECK(s.time == t);
+    CHECK(state_error(s, ex) <= 1e-7);
+  }
+  CHECK_THROWS_AS(run.solution(end.time + 1e-3), invalid_input);
+}
+
+TEST_CASE("adaptive: backward runs", "[adaptive]") {
+  const auto c = cases::ht1();
+  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 4);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-9;
+  State<double> s = c.initial;
+  REQUIRE(integrate_adaptive(stepper, s, 2.0, opt).ok());
+  const auto back = integrate_adaptive(stepper, s, 0.0, opt);
+  REQUIRE(back.ok());
+  CHECK(s.time == 0.0);
+  const double angle = (c.initial.rotation.inverse() * s.rotation).log().norm();
+  const double dw = (s.omega - c.initial.omega).norm() / 50;
+  std::printf("HT1 forward to 2 and back, rtol 1e-9: %lld steps back, angle %.2e, |dOmega|/|Omega| %.2e\n",
+              static_cast<long long>(back.accepted), angle, dw);
+  CHECK(std::max(angle, dw) <= 30 * 2 * 2 * 1e-9);
+  // events backward: the tilt maxima before t = 0 are found too
+  const auto& g = c.scene.effect<UniformGravity<double>>();
+  const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+  const AdaptiveRun<double> run = solve(stepper, c.initial, -0.5, opt, {-0.1, -0.2}, {events::nutation(c.scene, true)});
+  REQUIRE(run.success());
+  REQUIRE(run.states.size() == 2);
+  CHECK(run.states[1].time == -0.2);
+  const std::size_t expected = turning_points(top, 0, -0.5, true).size();
+  std::printf("HT1 backward to -0.5: %zu tilt maxima found, %zu expected\n", run.events[0].size(), expected);
+  CHECK(run.events[0].size() == expected);
+  CHECK(expected > 0);
+}
+
+TEST_CASE("adaptive: the failure contract", "[adaptive][robustness]") {
+  const auto c = cases::ht0();
+  // A Newton cap so tight that long steps fail: the driver shortens them and goes on,
+  // and every accepted step still keeps H exactly.
+  NewtonOptions<double> tight;
+  tight.max_iterations = 3;
+  Stepper<SimoKappa, Top> stepper(SimoKappa{false}, c.scene, tight);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-3;
+  opt.first_step = 0.05;
+  State<double> s = c.initial;
+  const auto sum = integrate_adaptive(stepper, s, 1.0, opt);
+  std::printf("Newton cap 3: %lld accepted, %lld failures (%s), %lld rejected\n", static_cast<long long>(sum.accepted),
+              static_cast<long long>(sum.failures), to_string(sum.failure), static_cast<long long>(sum.rejected));
+  REQUIRE(sum.ok());
+  CHECK(sum.failures > 0);
+  CHECK(std::abs(c.scene.energy(s) / c.scene.energy(c.initial) - 1) <= 1e-13);
+  // No Newton iteration allowed at all: the run fails at once, the state bit-identical.
+  NewtonOptions<double> none;
+  none.max_increment = 1e-300;  // every increment is a "wrong branch", however short the step
+  Stepper<SimoKappa, Top> failing(SimoKappa{false}, c.scene, none);
+  State<double> f = c.initial;
+  const auto fs = integrate_adaptive(failing, f, 1.0, opt);
+  CHECK(fs.status == AdaptiveStatus::failed);
+  CHECK(fs.accepted == 0);
+  CHECK(std::memcmp(f.omega.data(), c.initial.omega.data(), sizeof(double) * 3) == 0);
+  CHECK(std::memcmp(f.rotation.unit_quaternion().coeffs().data(), c.initial.rotation.unit_quaternion().coeffs().data(),
+                    sizeof(double) * 4) == 0);
+  CHECK(f.time == c.initial.time);
+}
+
+TEST_CASE("adaptive: bad input throws invalid_input naming the field", "[adaptive][robustness]") {
+  const auto c = cases::ht1();
+  Stepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const auto bad = [&](auto edit, const char* field) {
+    AdaptiveOptions<double> opt;
+    edit(opt);
+    State<double> s = c.initial;
+    CHECK_THROWS_WITH(integrate_adaptive(stepper, s, 1.0, opt), Catch::Contains(field));
+  };
+  bad([](auto& o) { o.rtol = 0; }, "rtol");
+  bad([](auto& o) { o.rtol = -1e-6; }, "rtol");
+  bad([&](auto& o) { o.rtol = nan; }, "rtol");
+  bad([&](auto& o) { o.atol = -1; }, "atol");
+  bad([&](auto& o) { o.atol = inf; }, "atol");
+  bad([&](auto& o) { o.first_step = -0.1; }, "first_step");
+  bad([&](auto& o) { o.max_step = 0; }, "max_step");
+  bad([&](auto& o) { o.epsilon = nan; }, "epsilon");
+  AdaptiveOptions<double> opt;
+  State<double> s = c.initial;
+  CHECK_THROWS_WITH(integrate_adaptive(stepper, s, nan, opt), Catch::Contains("t_end"));
+  s.omega.x() = nan;
+  CHECK_THROWS_AS(integrate_adaptive(stepper, s, 1.0, opt), invalid_input);
+  CHECK_THROWS_WITH(solve(stepper, c.initial, 1.0, opt, {0.5, 0.2}), Catch::Contains("t_eval"));
+  CHECK_THROWS_WITH(solve(stepper, c.initial, 1.0, opt, {2.0}), Catch::Contains("t_eval"));
+  Event<double> e = events::nutation(c.scene, true);
+  e.direction = 2;
+  CHECK_THROWS_WITH(solve(stepper, c.initial, 1.0, opt, {}, {e}), Catch::Contains("direction"));
+  CHECK_THROWS_WITH(events::by_name(c.scene, "wobble"), Catch::Contains("wobble"));
+  CHECK_THROWS_WITH(events::by_name(cases::fb1().scene, "nutation-max"), Catch::Contains("gravity"));
+}
+
+TEST_CASE("events: flip of FB1 and axis crossings", "[adaptive][events]") {
+  // FB1 flips about its intermediate axis: the body momentum along e2 changes sign; the
+  // interpolated state there has Π2 ≈ 0 to the tolerance.
+  const auto c = cases::fb1();
+  ComposedStepper<SimoKappa, Free> stepper(SimoKappa{}, c.scene, 4);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-10;
+  const AdaptiveRun<double> run =
+      solve(stepper, c.initial, 100.0, opt, {}, {events::by_name(c.scene, "flip"), events::by_name(c.scene, "axis-crossing")});
+  REQUIRE(run.success());
+  const Exact ex = exact_of(c);
+  std::printf("FB1 to t = 100: %zu flips, %zu axis crossings\n", run.events[0].size(), run.events[1].size());
+  REQUIRE(run.events[0].size() >= 2);
+  for (const State<double>& s : run.events[0]) {
+    CHECK(std::abs(2.0 * s.omega.y()) <= 1e-7);
+    CHECK(std::abs(2.0 * ex.omega(s.time).y()) <= 1e-5);
+  }
+  for (const State<double>& s : run.events[1]) CHECK(std::abs((s.rotation * V3::UnitZ()).z()) <= 1e-7);
+}
+
+#endif  // TROMPO_HAVE_BOOST

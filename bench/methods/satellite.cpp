@@ -5,6 +5,7 @@
 //   sweep/sat1/simo-kappa-o6/h:…          Simo-κ composed to order 6 (Kahan–Li); a failed
 //                                         step is retried as two halves (Recovering)
 //   sweep/sat1/simo-collocation-o6/h:…    Simo-collocation composed to order 6
+//   sweep/sat1/geradin-bauchau-o6/h:…     Géradin–Bauchau composed to order 6
 //   sweep/sat1/rk4/h:…, odeint-rk4, odeint-dopri5/tol:…   the explicit baselines
 //
 // The counter max_dH is the largest relative change of the scene's energy, here the
@@ -105,6 +106,7 @@ void register_satellite_sweeps() {
     return Recovering<SimoKappa>{ComposedStepper<SimoKappa, Sat>(SimoKappa{}, scene, Composition::kahan_li9)};
   });
   register_sweep(p, SimoCollocation{}, Composition::kahan_li9, {8, 0.5});
+  register_sweep(p, GeradinBauchau{}, Composition::kahan_li9, {8, 0.5});  // order 6 observed here
   p.rk4 = {4, 0.125};
   register_sweep_rk4(p);  // trompo's RK4, and with Boost odeint's runge_kutta4 and dopri5
 }

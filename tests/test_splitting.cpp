@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "support/long_run.hpp"
 #include "support/trompo_test.hpp"
 #include "trompo/trompo.hpp"
 
@@ -23,17 +24,7 @@ using M3 = Eigen::Matrix3d;
 
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr long long_run = 100000;  // the sanitizer stage is ~10× slower
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr long long_run = 100000;
-#else
-constexpr long long_run = 1000000;
-#endif
-#else
-constexpr long long_run = 1000000;
-#endif
+using trompo_test::long_run;  // 10⁶ steps (10⁵ under the sanitizer)
 
 const SplittingMethod all_methods[] = {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::chin_4a,
                                        SplittingMethod::kahan_li_9, SplittingMethod::chin_triple_jump};

@@ -4,6 +4,7 @@
 #include "trompo/model/body.hpp"
 #include "trompo/model/cases.hpp"
 #include "trompo/model/effects/external_torque.hpp"
+#include "trompo/model/effects/gravity_gradient.hpp"
 #include "trompo/model/effects/potential.hpp"
 #include "trompo/model/effects/rotor.hpp"
 #include "trompo/model/effects/uniform_gravity.hpp"

@@ -48,6 +48,13 @@ CASES = [
      dict(case="ht1", composition="kahan-li-17", dt=0.02, t_end=1)),
     (["--case", "ht1", "--composition", "blanes-casas-murua-13", "--dt", "0.02", "--t-end", "1"],
      dict(case="ht1", composition="blanes-casas-murua-13", dt=0.02, t_end=1)),
+    # a satellite (docs/spacecraft.md): the preset and its flags
+    (["--case", "sat1", "--scheme", "splitting", "--composition", "chin-4a", "--t-end", "600", "--every", "50"],
+     dict(case="sat1", scheme="splitting", composition="chin-4a", t_end=600, every=50)),
+    (["--inertia", "100,120,80", "--gravity-gradient", "0.0011", "--orbit-normal", "0,0,1", "--radial", "1,0,0",
+      "--rotation", "0.3,-0.2,0.5", "--omega", "0.05,0.07,0.04", "--dt", "2", "--t-end", "400", "--scheme", "rk4"],
+     dict(inertia=[100, 120, 80], gravity_gradient=0.0011, orbit_normal=[0, 0, 1], radial=np.array([1, 0, 0]),
+          rotation=[0.3, -0.2, 0.5], omega=[0.05, 0.07, 0.04], dt=2, t_end=400, scheme="rk4")),
 ]
 
 
@@ -109,6 +116,9 @@ BAD = [
     (["--case", "ht2", "--scheme", "exact"], dict(case="ht2", scheme="exact")),
     (["--case", "ht1", "--every", "0"], dict(case="ht1", every=0)),
     (["--case", "ht1", "--rotor", "1,2"], None),
+    (["--case", "sat1", "--radial", "1,0,1"], dict(case="sat1", radial=[1, 0, 1])),
+    (["--case", "sat1", "--gravity-gradient", "-1"], dict(case="sat1", gravity_gradient=-1)),
+    (["--case", "ht1", "--orbit-normal", "0,0,1"], dict(case="ht1", orbit_normal=[0, 0, 1])),
 ]
 
 
@@ -180,3 +190,18 @@ def test_a_switch_takes_a_bool_only():
     off = trompo.simulate(case="ht1", scheme="splitting", energy_projection=False, t_end=0.01)
     plain = trompo.simulate(case="ht1", scheme="splitting", t_end=0.01)
     assert np.array_equal(off["R"], plain["R"])
+
+
+def test_satellite_reports_the_jacobi_integral():
+    """On a satellite the H column is E_J = T + V - n o.pi, kept by the projected splitting."""
+    rows = trompo.simulate("sat1", scheme="splitting", composition="strang", energy_projection=True, dt=2.0,
+                           t_end=5712.0, every=100)
+    n = 0.0011
+    J = np.diag([100.0, 120.0, 80.0])
+    t, R, W = rows["t"], rows["R"], rows["W"]
+    r = np.stack([np.cos(n * t), np.sin(n * t), np.zeros_like(t)], axis=1)
+    c = np.einsum("kji,kj->ki", R, r)  # Lambda^T r
+    pi = np.einsum("kij,kj->ki", R, W @ J)
+    EJ = 0.5 * np.einsum("ki,ki->k", W, W @ J) + 1.5 * n * n * np.einsum("ki,ki->k", c, c @ J) - n * pi[:, 2]
+    assert np.allclose(rows["H"], EJ, rtol=1e-13, atol=0)
+    assert np.max(np.abs(rows["H"] - rows["H"][0])) < 1e-11

@@ -80,9 +80,9 @@ def _vector(name, x, sizes=(3,)):
     return ",".join(repr(float(v)) for v in a)
 
 
-_SCALARS = ("alpha", "mgl", "dt", "t_end", "every", "order", "damping", "threads")
+_SCALARS = ("alpha", "mgl", "dt", "t_end", "every", "order", "damping", "threads", "gravity_gradient")
 _VECTORS = {"inertia": (3, 6), "com": (3,), "up": (3,), "rotation": (3,), "omega": (3,), "torque": (3,),
-            "space_torque": (3,), "rotor": (3,)}
+            "space_torque": (3,), "rotor": (3,), "orbit_normal": (3,), "radial": (3,)}
 _WORDS = ("case", "scheme", "composition")
 
 
@@ -117,7 +117,8 @@ def _flags(kwargs):
 
 def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None, inertia=None, mgl=None,
              com=None, up=None, rotation=None, omega=None, dt=None, t_end=None, every=None, damping=None,
-             torque=None, space_torque=None, rotor=None, **flags):
+             torque=None, space_torque=None, rotor=None, gravity_gradient=None, orbit_normal=None, radial=None,
+             **flags):
     """One trajectory, as ``trompo-simulate`` with the same flags (``t_end`` is ``--t-end``).
 
     Returns a dict of NumPy arrays keyed like the CSV header: ``t`` (n,), ``R`` (n,3,3)
@@ -130,10 +131,15 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
     is passed as the CLI flag ``--name`` (``_`` becomes ``-``): the CLI's own parser
     accepts it or raises its ValueError (``unknown option '--name' (see --help)``).
+
+    A satellite (docs/spacecraft.md): ``case="sat1"`` or ``"sat2"``, or ``gravity_gradient=n``
+    (orbit rate, rad/s) with ``orbit_normal`` and ``radial`` (the radial direction at t = 0);
+    its ``H`` column is then the Jacobi integral E_J = H - n ô·π, the motion's invariant.
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, inertia=inertia,
                   mgl=mgl, com=com, up=up, rotation=rotation, omega=omega, dt=dt, t_end=t_end, every=every,
-                  damping=damping, torque=torque, space_torque=space_torque, rotor=rotor, **flags)
+                  damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
+                  gravity_gradient=gravity_gradient, orbit_normal=orbit_normal, radial=radial, **flags)
     for name in ("ensemble", "csv", "threads"):
         if name in flags:
             raise TypeError(f"simulate: {name!r} is not for simulate (see trompo.ensemble)")

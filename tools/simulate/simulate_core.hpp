@@ -44,7 +44,8 @@ using M3 = Eigen::Matrix3d;
 
 constexpr const char* kUsage =
     "usage: trompo-simulate [options]\n"
-    "  --case ht0|ht1|ht2|fb1|fb2   preset from docs/theory.md §7-8 (other flags override it)\n"
+    "  --case ht0|ht1|ht2|fb1|fb2|sat1|sat2   preset from docs/theory.md §7-8 and docs/spacecraft.md\n"
+    "                               (other flags override it)\n"
     "  --scheme simo-alpha|simo-collocation|simo-kappa|geradin-bauchau|geradin-bauchau-paper|rk4|exact|splitting\n"
     "  --alpha A                    simo-alpha only (default 0.5)\n"
     "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
@@ -76,6 +77,11 @@ constexpr const char* kUsage =
     "  --torque T1,T2,T3            constant body-fixed torque\n"
     "  --space-torque S1,S2,S3      constant space-fixed torque\n"
     "  --rotor H1,H2,H3             internal rotor angular momentum (body axes)\n"
+    "  --gravity-gradient N         a satellite: gravity gradient of a circular orbit of rate N rad/s\n"
+    "                               (docs/spacecraft.md); the H column is then the Jacobi integral\n"
+    "  --orbit-normal O1,O2,O3      with --gravity-gradient: the orbit normal (default 0,0,1)\n"
+    "  --radial R1,R2,R3            with --gravity-gradient: the radial direction at t = 0, orthogonal\n"
+    "                               to the orbit normal (default 1,0,0)\n"
     "  --ensemble FILE              integrate every initial state of FILE (CSV with header\n"
     "                               rotation1,rotation2,rotation3,omega1,omega2,omega3[,mgl][,J11,J22,J33[,J12,J13,J23]])\n"
     "                               across cores; writes each member's final state (docs/python.md)\n"
@@ -125,6 +131,10 @@ struct Config {
   V3 space_torque = V3::Zero();
   V3 rotor = V3::Zero();
   bool have_effects = false;  // any of --damping, --torque, --space-torque, --rotor
+  // ---- satellite (docs/spacecraft.md) ----
+  std::optional<double> gravity_gradient;  ///< --gravity-gradient N: the orbit rate; a satellite scene
+  V3 orbit_normal = V3::UnitZ();           ///< --orbit-normal
+  V3 radial = V3::UnitX();                 ///< --radial
   std::string ensemble;       ///< --ensemble FILE: initial states of the members (ensemble.hpp)
   unsigned threads = 0;       ///< --threads N (ensembles; 0 = every core)
   // ---- splitting (--scheme splitting) ----
@@ -174,7 +184,14 @@ inline void apply_case(const std::string& name, Config& c) {
     c.rotation = preset.initial.rotation.log();
     c.t_end = preset.t_end;
     c.dt = dt;
-    if constexpr (!std::decay_t<decltype(preset.scene)>::is_free) {
+    using SceneT = std::decay_t<decltype(preset.scene)>;
+    if constexpr (std::is_same_v<SceneT, trompo::cases::Satellite<double>>) {
+      const auto& g = preset.scene.template effect<trompo::GravityGradient<double>>();
+      c.mgl = 0;
+      c.gravity_gradient = g.orbit_rate();
+      c.orbit_normal = g.orbit_normal();
+      c.radial = g.radial();
+    } else if constexpr (!SceneT::is_free) {
       const auto& g = preset.scene.template effect<trompo::UniformGravity<double>>();
       c.mgl = g.Mgl();
       c.com = g.com_direction();
@@ -188,7 +205,9 @@ inline void apply_case(const std::string& name, Config& c) {
   else if (name == "ht2") from(trompo::cases::ht2<double>(), 0.0005);
   else if (name == "fb1") from(trompo::cases::fb1<double>(), 0.01);
   else if (name == "fb2") from(trompo::cases::fb2<double>(), 0.1);
-  else throw invalid_input("--case: unknown case '" + name + "' (ht0, ht1, ht2, fb1, fb2)");
+  else if (name == "sat1") from(trompo::cases::sat1<double>(), 1.0);
+  else if (name == "sat2") from(trompo::cases::sat2<double>(), 10.0);
+  else throw invalid_input("--case: unknown case '" + name + "' (ht0, ht1, ht2, fb1, fb2, sat1, sat2)");
 }
 
 /// Whether `name` is a --scheme the CLI runs.
@@ -324,6 +343,10 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       c.rotor = parse_vector(flag, value);
       c.have_effects = true;
     }
+    // ---- satellite ----
+    else if (flag == "--gravity-gradient") c.gravity_gradient = parse_number(flag, value);
+    else if (flag == "--orbit-normal") c.orbit_normal = parse_vector(flag, value);
+    else if (flag == "--radial") c.radial = parse_vector(flag, value);
     // ---- families (docs/families.md) ----
     else if (flag == "--rho-inf") c.rho_inf = parse_number(flag, value);
     else if (flag == "--chi") c.chi = parse_number(flag, value);
@@ -348,6 +371,20 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
                         std::to_string(*c.dt));
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  // ---- satellite: its own scene (gravity gradient only) ----
+  if (!c.gravity_gradient && (flags.count("--orbit-normal") || flags.count("--radial")))
+    throw invalid_input(std::string(flags.count("--orbit-normal") ? "--orbit-normal" : "--radial") +
+                        ": only with --gravity-gradient (or --case sat1|sat2)");
+  if (c.gravity_gradient) {
+    if (c.mgl != 0 || c.have_effects)
+      throw invalid_input("--gravity-gradient: a satellite scene has the gravity gradient only (no --mgl, --damping, "
+                          "--torque, --space-torque or --rotor)");
+    if (c.scheme == "exact") throw invalid_input("--scheme exact: no closed form for a satellite (--gravity-gradient)");
+    if (c.scheme == "energy-decaying")
+      throw invalid_input("--scheme energy-decaying: its torque average [T12] needs a potential linear in the attitude "
+                          "(uniform gravity), not --gravity-gradient");
+    if (!c.ensemble.empty()) throw invalid_input("--ensemble: not with --gravity-gradient (one satellite at a time)");
+  }
   if (c.ensemble.empty() && flags.count("--threads")) throw invalid_input("--threads: only with --ensemble");
   // ---- families (docs/families.md): parameters and what the schemes accept ----
   if (c.rho_inf && c.scheme != "lie-gen-alpha") throw invalid_input("--rho-inf: only with --scheme lie-gen-alpha");
@@ -774,9 +811,11 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
   if constexpr (!Scene::has_applied_torque) {
     if (c.scheme == "constrained-trapezoid")
       return run(Stepper<ConstrainedTrapezoid, Scene>(ConstrainedTrapezoid{}, scene), c, s0, out);
-    if (c.scheme == "energy-decaying") {
-      const ChiSchedule schedule = c.chi_schedule.value_or("constant") == "sensor" ? ChiSchedule::sensor : ChiSchedule::constant;
-      return run(Stepper<EnergyDecaying, Scene>(EnergyDecaying(c.chi.value_or(0.0), schedule), scene), c, s0, out);
+    if constexpr (Scene::potentials_linear) {  // [T12]'s closed form: not the gravity gradient
+      if (c.scheme == "energy-decaying") {
+        const ChiSchedule schedule = c.chi_schedule.value_or("constant") == "sensor" ? ChiSchedule::sensor : ChiSchedule::constant;
+        return run(Stepper<EnergyDecaying, Scene>(EnergyDecaying(c.chi.value_or(0.0), schedule), scene), c, s0, out);
+      }
     }
   }
   throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
@@ -796,6 +835,8 @@ template <class F>
 decltype(auto) with_scene_of(const Config& c, const trompo::RigidBody<double>& body, double mgl, bool heavy, F&& f) {
   using namespace trompo;
   const UniformGravity<double> gravity(mgl, c.com, c.up);
+  if (c.gravity_gradient)  // a satellite (docs/spacecraft.md): its H column is the Jacobi integral
+    return f(cases::Satellite<double>(body, GravityGradient<double>(body, *c.gravity_gradient, c.orbit_normal, c.radial)));
   if (c.have_effects)
     return f(Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,
                    ConstantSpaceTorque<double>, Rotor<double>>(body, gravity, ViscousDamping<double>(c.damping),
@@ -824,6 +865,7 @@ inline void validate(const Config& c) {
   const ConstantSpaceTorque<double> space_torque(c.space_torque);
   const Rotor<double> rotor(c.rotor);
   (void)gravity, (void)damping, (void)body_torque, (void)space_torque, (void)rotor;
+  if (c.gravity_gradient) (void)GravityGradient<double>(body, *c.gravity_gradient, c.orbit_normal, c.radial);
   // ---- splitting: method and projection against the scene, before any output (an
   // ensemble's members are checked again on their own scenes: validate_member) ----
   if (c.scheme == "splitting")
@@ -910,6 +952,8 @@ SceneT member_scene(const Config& c, const EnsembleInput& in, std::size_t i) {
   const RigidBody<double> body = member_body(c, in, i);
   if constexpr (SceneT::is_free) {
     return SceneT(body);
+  } else if constexpr (std::is_same_v<SceneT, cases::Satellite<double>>) {  // not reached: parse_flags refuses it
+    return SceneT(body, GravityGradient<double>(body, c.gravity_gradient.value_or(0.0), c.orbit_normal, c.radial));
   } else {
     const UniformGravity<double> gravity(in.mgl.empty() ? c.mgl : in.mgl[i], c.com, c.up);
     if constexpr (std::is_same_v<SceneT, HeavyTop<double>>)

@@ -20,6 +20,13 @@ constexpr bool linear_or_not_potential() {
   if constexpr (std::is_same_v<typename E::kind, potential_kind>) return E::linear_in_rotation;
   else return true;
 }
+/// True for an effect that declares `static constexpr bool time_dependent = true`
+/// (a potential V(Λ, t): the gravity gradient of an orbit).
+template <class E>
+constexpr bool time_dependent_effect() {
+  if constexpr (requires { E::time_dependent; }) return static_cast<bool>(E::time_dependent);
+  else return false;
+}
 }  // namespace detail
 
 /// A rigid body and the effects acting on it, fixed at compile time: energy, momenta, torques
@@ -48,6 +55,9 @@ class Scene {
   static constexpr bool has_rotor = (is_kind<Effects, rotor_kind> || ...);
   /// Every potential is linear in Λ: the closed forms of Simo-κ (19) and [T2] apply.
   static constexpr bool potentials_linear = (detail::linear_or_not_potential<Effects>() && ...);
+  /// Some potential depends on time (gravity gradient): energy() is then the Jacobi
+  /// integral E_J = H − n ô·π [G4], and no scheme keeps it unless it says so (scheme.hpp).
+  static constexpr bool has_time_dependent_potential = (detail::time_dependent_effect<Effects>() || ...);
   /// No effect at all: the free body; its step computes no torque.
   static constexpr bool is_free = sizeof...(Effects) == 0;
 
@@ -81,18 +91,31 @@ class Scene {
   }
   /// ½ Ω·JΩ (the rotor's own constant spin energy is left out).
   Scalar kinetic_energy(const Vector3& omega) const { return body_.kinetic_energy(omega); }
-  /// Σ V(Λ) over the potential effects.
-  Scalar potential_energy(const SO3<Scalar>& rotation) const {
+  /// Σ V(Λ, t) over the potential effects (t matters only to a time-dependent potential).
+  Scalar potential_energy(const SO3<Scalar>& rotation, Scalar t = Scalar(0)) const {
     if constexpr (has_potential) {
-      const Caches c = caches(rotation.matrix(), Scalar(0));
+      const Caches c = caches(rotation.matrix(), t);
       return potential(c, Matrix3::Identity());
     } else {
       return Scalar(0);
     }
   }
-  /// H = ½ Ω·JΩ + V(Λ)
+  /// The scene's energy-like invariant: H = ½ Ω·JΩ + V(Λ); with a time-dependent potential
+  /// (gravity gradient) the Jacobi integral E_J = ½ Ω·JΩ + V(Λ, t) − n ô·π [G4].
   Scalar energy(const State<Scalar>& s) const {
-    return kinetic_energy(s.omega) + potential_energy(s.rotation);
+    if constexpr (has_time_dependent_potential) {
+      return kinetic_energy(s.omega) + potential_energy(s.rotation, s.time) + rotating_frame_energy(spatial_momentum(s));
+    } else {
+      return kinetic_energy(s.omega) + potential_energy(s.rotation);
+    }
+  }
+  /// Σ of the effects' rotating-frame terms (−n ô·π for a gravity gradient [G4]; 0 for
+  /// every other effect): the Jacobi integral is H plus this.
+  Scalar rotating_frame_energy(const Vector3& pi) const {
+    Scalar e(0);
+    if constexpr (has_time_dependent_potential)
+      std::apply([&](const auto&... x) { ((e += frame_term(x, pi)), ...); }, effects_);
+    return e;
   }
   /// π = Λ(JΩ + h_r), the spatial angular momentum about O.
   Vector3 spatial_momentum(const State<Scalar>& s) const { return s.rotation * momentum(s.omega); }
@@ -194,6 +217,11 @@ class Scene {
     } else {
       return false;
     }
+  }
+  template <class E>
+  static Scalar frame_term(const E& e, const Vector3& pi) {
+    if constexpr (requires { e.rotating_frame_energy(pi); }) return e.rotating_frame_energy(pi);
+    else return Scalar(0);
   }
   template <class E>
   static void add_rotor(const E& e, Vector3& h) {

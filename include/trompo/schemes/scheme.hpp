@@ -151,10 +151,21 @@ constexpr int order_of_accuracy(const S& scheme) {
 }
 
 /// What `scheme`, with its parameters, keeps exactly on Scene.
+/// On a scene with a time-dependent potential (gravity gradient) the energy is the Jacobi
+/// integral E_J [G4]; a scheme keeps it only if it declares `keeps_jacobi_integral<Scene>`
+/// true (the energy-projected splitting): the implicit schemes freeze t at the mid time.
 template <class Scene, class S>
 constexpr Keeps keeps(const S& scheme) {
-  if constexpr (requires { scheme.template kept<Scene>(); }) return scheme.template kept<Scene>();
-  else return S::template keeps<Scene>;
+  Keeps k;
+  if constexpr (requires { scheme.template kept<Scene>(); }) k = scheme.template kept<Scene>();
+  else k = S::template keeps<Scene>;
+  if constexpr (requires { Scene::has_time_dependent_potential; }) {
+    if constexpr (Scene::has_time_dependent_potential) {
+      if constexpr (requires { S::template keeps_jacobi_integral<Scene>; }) k.energy = S::template keeps_jacobi_integral<Scene>;
+      else k.energy = false;
+    }
+  }
+  return k;
 }
 
 /// Throws invalid_input if a parameter of `scheme` is out of range (its validate());

@@ -344,17 +344,17 @@ inline Eigen::Matrix<Scalar, 3, 1> kick_torque(const Scene& scene, const Splitti
   return tau;
 }
 
-/// Σ V at Λ = Λ_w Qᵀ.
+/// Σ V at Λ = Λ_w Qᵀ and time t (t matters to a time-dependent potential only).
 template <class Scene, class Scalar = typename Scene::Scalar>
 inline Scalar potential_at(const Scene& scene, const SplittingFrame<Scalar>& f,
-                           const Eigen::Matrix<Scalar, 3, 3>& Lambda_w) {
+                           const Eigen::Matrix<Scalar, 3, 3>& Lambda_w, Scalar t) {
   Scalar v(0);
   std::apply(
       [&](const auto&... e) {
         auto one = [&](const auto& effect) {
           using E = std::decay_t<decltype(effect)>;
           if constexpr (std::is_same_v<typename E::kind, potential_kind>)
-            v += effect.potential(effect.cache(Lambda_w, Scalar(0)), f.Qt);
+            v += effect.potential(effect.cache(Lambda_w, t), f.Qt);
         };
         (one(e), ...);
       },
@@ -456,19 +456,25 @@ inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, 
   x.P += t * (tau + (h * h / Scalar(24)) * (K.transpose() * f.J_inv.cwiseProduct(tau)));
 }
 
-/// H in the working frame: ½(Π − h_r)·J⁻¹(Π − h_r) + V.
+/// H in the working frame: ½(Π − h_r)·J⁻¹(Π − h_r) + V(Λ, t); with a time-dependent
+/// potential the Jacobi integral, H − n ô·π with π = Λ_w Π_w [G4].
 template <class Scene, class Scalar = typename Scene::Scalar>
 inline Scalar working_energy(const Scene& scene, const SplittingFrame<Scalar>& f, const SplitState<Scalar>& x) {
   const Eigen::Matrix<Scalar, 3, 1> m = x.P - f.h_r;
   Scalar H = m.dot(f.J_inv.cwiseProduct(m)) / Scalar(2);
-  if constexpr (Scene::has_potential) H += potential_at(scene, f, Eigen::Matrix<Scalar, 3, 3>(x.q.toRotationMatrix()));
+  if constexpr (Scene::has_potential) {
+    const Eigen::Matrix<Scalar, 3, 3> L = x.q.toRotationMatrix();
+    H += potential_at(scene, f, L, x.t);
+    if constexpr (Scene::has_time_dependent_potential) H += scene.rotating_frame_energy(Eigen::Matrix<Scalar, 3, 1>(L * x.P));
+  }
   return H;
 }
 
 /// [S12] energy projection that keeps π: one linearised update
 ///   (Λ, Π) ← (Λ exp(λ n̂), exp(−λ n̂) Π),  n = Π̇/|Π̇|,  Π̇ = Π × Ω + τ(Λ),  λ = (H − H0)/|Π̇|,
 /// the time-λ flow of n·Π (n fixed in the body), so π = ΛΠ is untouched and dH/dλ = −|Π̇|.
-/// At a relative equilibrium (Π̇ = 0) there is nothing to correct.
+/// At a relative equilibrium (Π̇ = 0) there is nothing to correct. With a time-dependent
+/// potential (t frozen) H0 is the Jacobi integral E_J of the first state and E_J is projected.
 template <class Scene, class Scalar = typename Scene::Scalar>
 inline void project_energy(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar H0) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -480,7 +486,9 @@ inline void project_energy(const Scene& scene, const SplittingFrame<Scalar>& f, 
   Scalar H = (x.P - f.h_r).dot(omega) / Scalar(2);
   Vector3 Pdot = x.P.cross(omega);
   if constexpr (Scene::has_potential) {
-    H += potential_at(scene, f, L);
+    H += potential_at(scene, f, L, x.t);
+    // E_J = H − n ô·π: the update keeps π, so dE_J/dλ = dH/dλ and E_J is projected [G5].
+    if constexpr (Scene::has_time_dependent_potential) H += scene.rotating_frame_energy(Vector3(L * x.P));
     Pdot += kick_torque(scene, f, L, x.t);
   }
   const Scalar norm = Pdot.norm();

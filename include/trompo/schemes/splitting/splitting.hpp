@@ -136,6 +136,11 @@ struct SplittingScheme {
   static constexpr Keeps keeps{.energy = EnergyProjection,
                                .momentum_map = true,
                                .spatial_momentum = !Scene::has_potential && !Scene::has_applied_torque};
+  /// With a time-dependent potential (gravity gradient) the projection targets the Jacobi
+  /// integral E_J [G4], [G5]: the projected splitting keeps it; the plain one keeps it in a
+  /// bounded band.
+  template <class Scene>
+  static constexpr bool keeps_jacobi_integral = EnergyProjection;
   /// Whether the energy projection [S12] runs after each step.
   static constexpr bool energy_projection = EnergyProjection;
 

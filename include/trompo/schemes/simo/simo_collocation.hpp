@@ -12,16 +12,9 @@ namespace trompo {
 struct SimoCollocation {
   /// "simo-collocation".
   static constexpr const char* name = "simo-collocation";
-  /// Order 2, symmetric (may be composed); keeps H, μ and π (free body). Its memory, the
-  /// history predictor's, is only a hint: a plain State may be stepped (with fresh
-  /// memory). The step writes the memory only when it succeeds, after checking its result
-  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
-  static constexpr SchemeTraits traits{
-      .order = 2,
-      .symmetric = true,
-      .keeps = [](SceneKind s) { return Keeps{.energy = true, .momentum_map = true, .spatial_momentum = s.is_free}; },
-      .memory = MemoryUse::hint,
-      .writes_memory_on_success = true};
+  /// Order 2, symmetric; keeps H, μ and π (free body); the history predictor's memory
+  /// (detail::energy_exact_simo_traits).
+  static constexpr SchemeTraits traits = detail::energy_exact_simo_traits;
 
   /// Whether the steps of a Trajectory start from the history predictor and the carried
   /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved

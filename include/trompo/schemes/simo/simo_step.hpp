@@ -25,12 +25,25 @@
 #include "trompo/solvers/newton.hpp"
 #include "trompo/schemes/history.hpp"
 #include "trompo/schemes/implicit_step.hpp"
+#include "trompo/schemes/scheme.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
 
 namespace trompo {
 namespace detail {
+
+/// The traits of the energy-exact Simo schemes (Simo-κ, collocation): order 2, symmetric
+/// (may be composed); keep H, μ and π (free body). Their memory, the history predictor's,
+/// is only a hint: a plain State may be stepped (with fresh memory). The step writes the
+/// memory only when it succeeds, after checking its result (scheme.hpp): the Stepper
+/// steps the memory in place, without copies.
+inline constexpr SchemeTraits energy_exact_simo_traits{
+    .order = 2,
+    .symmetric = true,
+    .keeps = [](SceneKind s) { return Keeps{.energy = true, .momentum_map = true, .spatial_momentum = s.is_free}; },
+    .memory = MemoryUse::hint,
+    .writes_memory_on_success = true};
 
 /// Which member of the Simo family: how α and κ of [T1] are chosen.
 enum class SimoVariant {

@@ -17,9 +17,11 @@ using namespace trompo;
 // ---- the README example starts here ----
 struct Midpoint {  // the implicit midpoint rule on (q, Ω), free body
   static constexpr const char* name = "my-midpoint";
-  static constexpr int order = 2;
-  static constexpr bool symmetric = true;
-  template <class Scene> static constexpr Keeps keeps{.energy = Scene::is_free};
+  static constexpr SchemeTraits traits{                    // its properties, checked by the compiler
+      .order = 2,
+      .symmetric = true,                                      // Φ_{−h} = Φ_h⁻¹: may be composed
+      .keeps = [](SceneKind s) { return Keeps{.energy = s.is_free}; },  // H on the free body
+      .memory = MemoryUse::carried};                          // it has a Memory, part of the trajectory
   template <class Scene> struct Memory { long steps = 0; };  // what it carries between steps
 
   template <class Scene>

@@ -229,8 +229,8 @@ TEST_CASE("composition: invalid orders and non-symmetric bases are rejected", "[
   CHECK_NOTHROW((ComposedStepper<SimoAlpha, Top>(SimoAlpha(0.5), c.scene, 6)));
   CHECK_NOTHROW((ComposedStepper<GeradinBauchauPaper, Top>(GeradinBauchauPaper{}, c.scene, 4)));
   // RK4 is refused at compile time (a static_assert on the scheme's trait `symmetric`).
-  STATIC_REQUIRE_FALSE(RK4::symmetric);
-  STATIC_REQUIRE(SimoKappa::symmetric);
+  STATIC_REQUIRE_FALSE(RK4::traits.symmetric);
+  STATIC_REQUIRE(SimoKappa::traits.symmetric);
 }
 
 TEST_CASE("composition: order 2 is exactly one step of the base scheme", "[composition]") {

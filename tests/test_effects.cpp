@@ -27,7 +27,7 @@ constexpr double eps = std::numeric_limits<double>::epsilon();
 
 // ---- which scheme keeps what: read from the schemes' traits (scheme.hpp) ----------------
 template <class S, class Scene>
-constexpr Keeps kept = S::template keeps<Scene>;
+constexpr Keeps kept = scheme_keeps_v<S, Scene>;
 /// H exact on the free body (every energy-momentum scheme; not RK4).
 template <class S>
 constexpr bool is_implicit = kept<S, FreeScene<double>>.energy;

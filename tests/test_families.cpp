@@ -353,8 +353,8 @@ TEST_CASE("Gen-alpha coefficients of [T7] for rho_inf = 1, 0.8, 0 and bad rho_in
   CHECK_FALSE(symmetric(LieGenAlpha(1.0)));
   CHECK(symmetric(EnergyDecaying(0.0)));
   CHECK(keeps<cases::Top<double>>(EnergyDecaying(0.0)).energy);
-  CHECK(ConstrainedTrapezoid::keeps<cases::Top<double>>.energy);
-  CHECK_FALSE(ConstrainedTrapezoid::keeps<cases::Top<double>>.momentum_map);
+  CHECK(scheme_keeps_v<ConstrainedTrapezoid, cases::Top<double>>.energy);
+  CHECK_FALSE(scheme_keeps_v<ConstrainedTrapezoid, cases::Top<double>>.momentum_map);
 }
 
 TEST_CASE("A scheme parameter set after construction is rejected by the Stepper with its name and value",

@@ -30,9 +30,9 @@ using Vec3 = Eigen::Vector3d;
 // Which invariants a scheme keeps to round-off on the heavy top: the scheme's own traits
 // (scheme.hpp; docs/theory.md §3, §4).
 template <class Scheme>
-constexpr bool exact_energy = Scheme::template keeps<cases::Top<double>>.energy;
+constexpr bool exact_energy = scheme_keeps_v<Scheme, cases::Top<double>>.energy;
 template <class Scheme>
-constexpr bool exact_momentum = Scheme::template keeps<cases::Top<double>>.momentum_map;
+constexpr bool exact_momentum = scheme_keeps_v<Scheme, cases::Top<double>>.momentum_map;
 
 using trompo_test::same_bits;
 
@@ -66,7 +66,7 @@ struct Drift {
 
 template <class Scheme, class Scene>
 void check_invariants(const Drift<Scene>& d, double tol) {
-  constexpr Keeps k = Scheme::template keeps<Scene>;
+  constexpr Keeps k = scheme_keeps_v<Scheme, Scene>;
   if constexpr (k.energy) CHECK(d.max_dH <= tol);
   if constexpr (k.momentum_map) CHECK(d.max_dmu <= tol);
 }
@@ -113,11 +113,11 @@ bool continued_omega(const Scheme& scheme, const Scene& scene, const State<doubl
     opt.max_iterations = 50;
     StepReport<double> rep;
     if constexpr (gb) {
-      rep = detail::newton(scheme.residual(d), x, opt, (hj * s.omega).norm());
+      rep = detail::newton(scheme.residual(d), x, opt, NewtonSolve<double>{.x_scale = (hj * s.omega).norm()});
       omega = s.omega + 4.0 * x / hj;
     } else {
       if (j == 1) x = d.predicted_increment() - hj * s.omega;
-      rep = detail::newton(scheme.residual(d), x, opt, (hj * s.omega).norm());
+      rep = detail::newton(scheme.residual(d), x, opt, NewtonSolve<double>{.x_scale = (hj * s.omega).norm()});
       omega = s.omega + 2.0 * x / hj;
     }
     if (!rep.ok()) return false;
@@ -341,8 +341,8 @@ void inertia_case(const Vec3& J, const Vec3& omega0, const Vec3& E, double h, in
     s.omega = omega0;
     Drift<cases::Free<double>> drift(scene, s);
     step_or_recover(st, s, h, n, drift);
-    if constexpr (Scheme::template keeps<cases::Free<double>>.energy) CHECK(drift.max_dH <= 1e-12);
-    if constexpr (Scheme::template keeps<cases::Free<double>>.spatial_momentum) CHECK(drift.max_dpi <= 1e-12);
+    if constexpr (scheme_keeps_v<Scheme, cases::Free<double>>.energy) CHECK(drift.max_dH <= 1e-12);
+    if constexpr (scheme_keeps_v<Scheme, cases::Free<double>>.spatial_momentum) CHECK(drift.max_dpi <= 1e-12);
   }
   {
     const cases::Top<double> scene(RigidBody<double>(J), UniformGravity<double>(J.maxCoeff(), E, Vec3::UnitZ()));

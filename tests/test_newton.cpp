@@ -98,7 +98,7 @@ Counts count_evaluations(const Scheme& scheme, const cases::Case<SceneT>& c, dou
     };
     const Vec3 Theta0 = d.predicted_increment();
     Vec3 y = Theta0 - h * s.omega;
-    REQUIRE(detail::newton(counted, y, opt, Theta0.norm()).ok());
+    REQUIRE(detail::newton(counted, y, opt, NewtonSolve<double>{.x_scale = Theta0.norm()}).ok());
     REQUIRE(stepper.step(s, h).ok());
     ++k.steps;
   }

@@ -48,7 +48,10 @@ Counts count_with_history(const Scheme& scheme, const cases::Case<SceneT>& c, do
       const Vec3 base = gb ? Vec3(h / 2 * traj.omega) : Vec3(h * traj.omega);
       Vec3 y = x0 - base;
       Mat3 K, K_inv = m.tangent_inverse;
-      REQUIRE(detail::newton(counted, y, stepper.options(), x0.norm(), &K, &K_inv, true).ok());
+      REQUIRE(detail::newton(counted, y, stepper.options(),
+                                    NewtonSolve<double>{
+                                        .x_scale = x0.norm(), .tangent = &K, .carried = &K_inv, .start_from_carried = true})
+                  .ok());
       const Vec3 x = base + y;
       REQUIRE(stepper.step(traj, h).ok());
       if constexpr (!gb) CHECK(std::memcmp(x.data(), traj.memory.increment[0].data(), sizeof(double) * 3) == 0);

@@ -40,6 +40,72 @@ static_assert(SchemeFor<SimoAlpha, Top> && SchemeFor<SimoCollocation, Top> && Sc
 /// A type that is not a scheme (no traits, no step) is refused by the concept.
 struct NotAScheme {};
 static_assert(!SchemeFor<NotAScheme, Free>);
+
+// ---- traits the compiler checks --------------------------------------------------------
+// A name and a step, as a scheme has; declared only (the concept reads signatures).
+struct StepOnly {
+  static constexpr const char* name = "step-only";
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step(const Scene&, const State<typename Scene::Scalar>&, typename Scene::Scalar,
+                                          const NewtonOptions<typename Scene::Scalar>&, State<typename Scene::Scalar>&,
+                                          NoMemory&) const;
+};
+/// Without the required traits value, a step alone is not a scheme (before, order, symmetry
+/// and what it keeps were separate members, the optional ones found by `requires`).
+static_assert(!SchemeFor<StepOnly, Free>);
+/// With it, it is.
+struct WithTraits : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .symmetric = true};
+};
+static_assert(SchemeFor<WithTraits, Free>);
+/// A traits member of another type (the old `static constexpr bool symmetric` habit) is refused.
+struct WrongTraitsType : StepOnly {
+  static constexpr bool traits = true;
+};
+static_assert(!SchemeFor<WrongTraitsType, Free>);
+/// The traits announce a run-time refinement that the scheme misspells (`refine`): refused,
+/// where the optional `is_symmetric` of before was silently ignored and a first-order
+/// Simo-α composed.
+struct MisspeltRefinement : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .symmetric = true, .refined = true};
+  SchemeTraits refine() const;
+};
+static_assert(!SchemeFor<MisspeltRefinement, Free>);
+/// A refinement the traits do not announce is refused too: it would never be read.
+struct UnannouncedRefinement : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .symmetric = true};
+  SchemeTraits refined() const;
+};
+static_assert(!SchemeFor<UnannouncedRefinement, Free>);
+/// Likewise a parameter check: announced and misspelt, or present and not announced.
+struct MisspeltValidate : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .validated = true};
+  void validates() const;
+};
+struct UnannouncedValidate : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2};
+  void validate() const;
+};
+static_assert(!SchemeFor<MisspeltValidate, Free> && !SchemeFor<UnannouncedValidate, Free>);
+/// A memory the traits announce must exist (a misspelt `Memroy` is refused), and the reverse.
+struct AnnouncedMemoryMissing : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .memory = MemoryUse::carried};
+  template <class Scene>
+  struct Memroy {};
+};
+struct UnannouncedMemory : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2};
+  template <class Scene>
+  using Memory = NoMemory;
+};
+static_assert(!SchemeFor<AnnouncedMemoryMissing, Free> && !SchemeFor<UnannouncedMemory, Free>);
+/// Writing the memory on success only means nothing without a memory.
+struct WritesNoMemory : StepOnly {
+  static constexpr SchemeTraits traits{.order = 2, .writes_memory_on_success = true};
+};
+static_assert(!SchemeFor<WritesNoMemory, Free>);
+// (A misspelt field of the traits value itself, `.symetric = true`, does not compile at all:
+// designated initialisers name existing fields only.)
 /// A memoryless composed stepper carries no memory either: zero cost.
 static_assert(std::is_same_v<ComposedStepper<SimoAlpha, Top>::Memory, NoMemory>);
 static_assert(std::is_same_v<Stepper<SimoAlpha, Top>::TrajectoryType, Trajectory<double, NoMemory>>);
@@ -59,6 +125,13 @@ TEST_CASE("Scheme concept: the traits a test reads come from the scheme", "[sche
   CHECK(symmetric(SimoAlpha(0.5)));
   CHECK_FALSE(symmetric(SimoAlpha(0.3)));
   CHECK(order_of_accuracy(SimoAlpha(0.3)) == 1);
+  CHECK(order_of_accuracy(SimoAlpha(0.5)) == 2);
+  // The refinement changes what is kept, too: the energy-decaying scheme keeps H at χ = 0 only.
+  CHECK(keeps<Top>(EnergyDecaying(0.0)).energy);
+  CHECK_FALSE(keeps<Top>(EnergyDecaying(0.5)).energy);
+  CHECK(keeps<Top>(EnergyDecaying(0.5)).energy_decays);
+  CHECK_FALSE(scheme_keeps_v<EnergyDecaying, Top>.energy);  // the static traits: only what every χ keeps
+  CHECK(order_of_accuracy(Splitting(SplittingMethod::kahan_li_9)) == 6);
   CHECK_FALSE(symmetric(RK4{}));
   CHECK(order_of_accuracy(RK4{}) == 4);
   // Per kind of scene: GB keeps H only for potentials linear in Λ; [T5] never keeps μ.
@@ -112,7 +185,7 @@ TEST_CASE("Scheme concept: observed order of the user scheme is its trait (self-
   const double e2 = (s2.rotation.matrix() - s3.rotation.matrix()).norm();
   const double p = std::log2(e1 / e2);
   INFO("self-convergence errors " << e1 << ", " << e2 << ": order " << p);
-  CHECK(std::abs(p - MidpointQ::order) <= 0.1);
+  CHECK(std::abs(p - MidpointQ::traits.order) <= 0.1);
 }
 
 TEST_CASE("Scheme concept: a failed step leaves state and memory bit-identical", "[scheme][memory][contract]") {

@@ -296,7 +296,7 @@ void check_order(const Case& c, const char* name, const Reference& ref, double h
   WARN(Scheme::name << " " << name << ": order Lambda " << orders(eL) << " | Omega " << orders(eW) << "; finest |dLambda|_F "
                     << eL[levels - 1] << ", its/step " << its);
   // The order asserted is the scheme's trait (scheme.hpp), ± 0.1.
-  constexpr double p_expected = Scheme::order;
+  constexpr double p_expected = Scheme::traits.order;
   for (double p : {pL1, pL2, pW1, pW2}) {
     CHECK(p >= p_expected - 0.1);
     CHECK(p <= p_expected + 0.1);
@@ -318,7 +318,7 @@ TEMPLATE_TEST_CASE("Symmetry: a step of h then -h returns to the start, |dLambda
   for_each_case([](const auto& c, const CaseRun& r) {
     Stepper<TestType, typename std::decay_t<decltype(c)>::SceneT> stepper(TestType{}, c.scene);
     // Every scheme listed says it is symmetric (its trait); this checks that it is.
-    STATIC_REQUIRE(TestType::symmetric);
+    STATIC_REQUIRE(TestType::traits.symmetric);
     REQUIRE(stepper.symmetric());
     State<double> s = c.initial;
     double worst_L = 0, worst_W = 0;

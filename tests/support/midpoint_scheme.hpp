@@ -24,11 +24,13 @@ namespace trompo_test {
 
 struct MidpointQ {
   static constexpr const char* name = "test-midpoint-q";
-  static constexpr int order = 2;
-  static constexpr bool symmetric = true;
-  /// H is quadratic on the free body (kept); nothing is kept under a load.
-  template <class Scene>
-  static constexpr trompo::Keeps keeps{.energy = Scene::is_free};
+  /// Order 2, symmetric; H is quadratic on the free body (kept), nothing is kept under a
+  /// load; its memory (a step count) belongs to the trajectory.
+  static constexpr trompo::SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps = [](trompo::SceneKind s) { return trompo::Keeps{.energy = s.is_free}; },
+      .memory = trompo::MemoryUse::carried};
 
   /// The memory: accepted steps since the trajectory started (or was reset).
   template <class Scene>

@@ -41,18 +41,43 @@ constexpr Scalar tiny_scale() {
   return std::numeric_limits<Scalar>::min() / std::numeric_limits<Scalar>::epsilon();
 }
 
+}  // namespace trompo::detail
+
+namespace trompo {
+
+/// One damped solve's own inputs and outputs besides the residual and the controls
+/// (NewtonOptions), by name (see detail::damped_newton).
+template <int N, class Scalar>
+struct DampedNewtonSolve {
+  /// An N-vector of Scalar.
+  using VectorN = Eigen::Matrix<Scalar, N, 1>;
+  /// An N×N matrix of Scalar.
+  using MatrixN = Eigen::Matrix<Scalar, N, N>;
+  /// The row weights W (positive): the natural scale of each row of R.
+  VectorN weights = VectorN::Ones();
+  /// The size against which a correction is judged.
+  Scalar x_scale = Scalar(0);
+  /// If given, receives the tangent at the last full evaluation on success.
+  MatrixN* tangent = nullptr;
+};
+
+}  // namespace trompo
+
+namespace trompo::detail {
+
 /// Solves R(x) = 0 from x. `eval(x, R, K)` fills R and, if K is not null, the tangent
-/// ∂R/∂x; it returns false if x is outside the scheme's domain. `W` are the row weights
-/// (positive), `x_scale` the size against which a correction is judged. On success
-/// `tangent` (if given) receives the tangent at the last full evaluation.
+/// ∂R/∂x; it returns false if x is outside the scheme's domain. `solve` names the rest:
+/// the row weights W, the size x_scale against which a correction is judged, and the
+/// tangent output.
 template <int N, class Scalar, class Eval>
-StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, const Eigen::Matrix<Scalar, N, 1>& W,
-                                 const NewtonOptions<Scalar>& opt, Scalar x_scale,
-                                 Eigen::Matrix<Scalar, N, N>* tangent = nullptr) {
+StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, const NewtonOptions<Scalar>& opt,
+                                 const DampedNewtonSolve<N, Scalar>& solve) {
   using VectorN = Eigen::Matrix<Scalar, N, 1>;
   using MatrixN = Eigen::Matrix<Scalar, N, N>;
   constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  const Scalar size = x_scale + tiny_scale<Scalar>();
+  const VectorN& W = solve.weights;
+  MatrixN* const tangent = solve.tangent;
+  const Scalar size = solve.x_scale + tiny_scale<Scalar>();
   StepReport<Scalar> rep;
   VectorN R, R_trial, x_trial;
   MatrixN K, K_trial;

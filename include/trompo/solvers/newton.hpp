@@ -51,12 +51,17 @@ struct StepReport {
   bool ok() const { return status == StepStatus::ok; }
   /// The status as text.
   const char* reason() const { return to_string(status); }
+  /// Adds the work of `spent` (its counts) to this report's, and nothing else: an attempt
+  /// whose outcome was discarded (a history solve before its memoryless retry).
+  void add_work(const StepReport& spent) {
+    iterations += spent.iterations;
+    evaluations += spent.evaluations;
+    tangents += spent.tangents;
+  }
   /// Adds a sub-step's report to this step's (compositions): counts summed, the largest
   /// residual, and the sub-step's status if it failed.
   void absorb(const StepReport& sub) {
-    iterations += sub.iterations;
-    evaluations += sub.evaluations;
-    tangents += sub.tangents;
+    add_work(sub);
     if (sub.residual > residual) residual = sub.residual;
     if (!sub.ok()) status = sub.status;
   }
@@ -93,6 +98,25 @@ struct NewtonOptions {
   Scalar reuse_tangent = Scalar(1e-3);
 };
 
+/// One solve's own inputs and outputs besides the residual and the controls (NewtonOptions),
+/// by name: the size of the unknown, where the tangent goes, and the tangent carried from
+/// an earlier solve (see detail::newton).
+template <class Scalar>
+struct NewtonSolve {
+  /// A 3×3 matrix of Scalar.
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// The size against which a correction is judged (the increment's size).
+  Scalar x_scale = Scalar(0);
+  /// If given, receives the last evaluated tangent K on success.
+  Matrix3* tangent = nullptr;
+  /// If given, the iteration's inverse tangent: on success the inverse of the tangent used
+  /// last (for the next solve, [P3], and the fold rule).
+  Matrix3* carried = nullptr;
+  /// Start from *carried, the inverse tangent of a nearby solve: evaluation 0 is then
+  /// residual-only and the first correction a chord step with it. Needs `carried`.
+  bool start_from_carried = false;
+};
+
 namespace detail {
 
 /// K⁻¹ = adj(K)/det K, the rows of adj(K) being the cross products of K's columns, so
@@ -117,8 +141,9 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// `eval(x, R, K, scale)` fills the residual and its natural scale, and the tangent
 /// ∂R/∂x into *K unless K is null (then only R, bit-identical: the schemes skip the
 /// tangent's matrix products, about half of an evaluation); it returns false if x is
-/// outside the domain. `x_scale` is the size against which a correction is judged (the
-/// increment's size).
+/// outside the domain. `solve` (NewtonSolve) names the rest: x_scale, the size against
+/// which a correction is judged (the increment's size), written x_scale below, and the
+/// optional tangent outputs and carried tangent.
 ///
 /// Tangent reuse (opt.reuse_tangent > 0). From the second evaluation on, an iterate x_k
 /// is evaluated residual-only when the last correction was at most
@@ -144,33 +169,34 @@ bool invert_unless_singular(const Eigen::Matrix<Scalar, 3, 3>& K, Eigen::Matrix<
 /// confirming evaluation every time.
 ///
 /// rep.residual is the last evaluated ‖R‖/scale (before the final correction when the
-/// estimate accepted it). On success, `tangent` (if given) receives the last evaluated
+/// estimate accepted it). On success, solve.tangent (if given) receives the last evaluated
 /// K: at the accepted x, or at an iterate that chord corrections (each ≤
 /// opt.reuse_tangent·x_scale) separate from it, which is what the fold
 /// rule needs (the sign of det K, which changes only across a fold, where K is
 /// singular and the iteration fails).
 ///
-/// Carried tangent ([P3]). With `carried` non-null and `use_carried`, *carried holds the
+/// Carried tangent ([P3]). With solve.carried non-null and solve.start_from_carried, it holds the
 /// inverse of a tangent from a nearby solve (the previous step of the same size, kept in
 /// the scheme's memory): evaluation 0 is then residual-only and the first correction a
 /// chord step with it. Everything else is as above, except that a chord step with the
 /// carried tangent must contract the residual by 10⁴× (not 10×), else a fresh tangent is
 /// evaluated there; acceptance is by the same rules. On
-/// success *carried (when given) holds the inverse of the tangent used last, for the
-/// next solve and for the fold rule (det K⁻¹ has the sign of det K); `tangent` receives
-/// the last evaluated K only if one was evaluated. *carried is the iteration's own inverse
-/// (not a copy), so on failure it may hold any inverse evaluated meanwhile; with
-/// `use_carried` false its value on entry is not read.
+/// success *solve.carried (when given) holds the inverse of the tangent used last, for the
+/// next solve and for the fold rule (det K⁻¹ has the sign of det K); solve.tangent receives
+/// the last evaluated K only if one was evaluated. *solve.carried is the iteration's own
+/// inverse (not a copy), so on failure it may hold any inverse evaluated meanwhile; without
+/// start_from_carried its value on entry is not read.
 template <class Scalar, class Eval>
 StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const NewtonOptions<Scalar>& opt,
-                          Scalar x_scale, Eigen::Matrix<Scalar, 3, 3>* tangent = nullptr,
-                          Eigen::Matrix<Scalar, 3, 3>* carried = nullptr, bool use_carried = false) {
+                          const NewtonSolve<Scalar>& solve) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
   StepReport<Scalar> rep;
   const Scalar tiny = std::numeric_limits<Scalar>::min() / eps;
-  const Scalar size = x_scale + tiny;
+  const Scalar size = solve.x_scale + tiny;
+  Matrix3* const tangent = solve.tangent;
+  Matrix3* const carried = solve.carried;
   const bool reuse = opt.reuse_tangent > Scalar(0);
   Vector3 R;
   Matrix3 K = Matrix3::Zero();  // tangent of the last full evaluation
@@ -178,7 +204,7 @@ StepReport<Scalar> newton(Eval&& eval, Eigen::Matrix<Scalar, 3, 1>& x, const New
   // written by every inversion), which saves copying it in and out at every solve.
   Matrix3 own_inverse = Matrix3::Zero();
   Matrix3& K_inv = carried ? *carried : own_inverse;
-  const bool start_carried = carried && use_carried && reuse;
+  const bool start_carried = carried && solve.start_from_carried && reuse;
   bool evaluated_tangent = false;   // whether K holds a tangent evaluated in this solve
   Scalar scale(1);
   Scalar last_step = std::numeric_limits<Scalar>::infinity();

@@ -44,47 +44,14 @@
 #include <utility>
 
 #include "trompo/errors.hpp"
-#include "trompo/solvers/newton.hpp"
-#include "trompo/schemes/scheme.hpp"
 #include "trompo/model/state.hpp"
+#include "trompo/schemes/coefficients.hpp"
+#include "trompo/schemes/scheme.hpp"
+#include "trompo/solvers/newton.hpp"
+#include "trompo/steppers/composition_core.hpp"
 #include "trompo/steppers/stepper.hpp"
 
 namespace trompo {
-
-/// The weights of the processed method of Blanes, Casas & Murua, "Composition methods for
-/// differential equations with processing", SIAM J. Sci. Comput. 27 (2006) 1817–1843: the
-/// order-6 kernel of s = 13 symmetric stages and its processor of 12 stages ([P5]).
-template <class Scalar>
-struct ProcessedCoefficients {
-  /// Kernel stages s.
-  static constexpr int kernel_stages = 13;
-  /// Processor stages.
-  static constexpr int processor_stages = 12;
-  /// The order of the processed outputs.
-  static constexpr int order = 6;
-  /// Kernel weights a_1 … a_13 (a_i = a_{14−i}, Σa_i = 1).
-  std::array<Scalar, kernel_stages> kernel{};
-  /// Processor weights p_1 … p_12 (Σp_j = 0): P_h = Φ_{p_1 h} ∘ … ∘ Φ_{p_12 h}, the step
-  /// p_12 h first.
-  std::array<Scalar, processor_stages> processor{};
-
-  /// The published weights (to the 15 digits printed; the dependent ones computed here).
-  static ProcessedCoefficients bcm13() {
-    ProcessedCoefficients c;
-    // Kernel: a1 = a2 = a3 = a4, a5, a6, then the centre from Σa_i = 1, mirrored.
-    const long double a1 = 0.125696288720106L, a5 = 0.148070660114965L, a6 = -0.350856370823828L;
-    const long double centre = 1.0L - 2.0L * (4.0L * a1 + a5 + a6);
-    const long double half[7] = {a1, a1, a1, a1, a5, a6, centre};
-    for (int i = 0; i < 7; ++i) c.kernel[std::size_t(i)] = c.kernel[std::size_t(12 - i)] = Scalar(half[i]);
-    // Processor: g1 … g5 printed, g6 = −(g1 + … + g5), g_{6+j} = −g_j; p_j = −g_j.
-    long double g[12] = {0.1L, 0.225080298761176L, 0.191244694511161L, -0.212763792194890L,
-                         -0.09660157306582295L, 0.0L};
-    g[5] = -(g[0] + g[1] + g[2] + g[3] + g[4]);
-    for (int j = 0; j < 6; ++j) g[6 + j] = -g[j];
-    for (int j = 0; j < 12; ++j) c.processor[std::size_t(j)] = Scalar(-g[j]);
-    return c;
-  }
-};
 
 /// The trajectory memory of a ProcessedStepper: the kernel state and the base schemes'
 /// memories.
@@ -102,13 +69,13 @@ struct ProcessedMemory {
 };
 
 /// The processed order-6 composition of a symmetric order-2 scheme (docs/theory.md §13.5
-/// [P5]): outputs P_h K_h^n P_h⁻¹ x_0. Keeps whatever the base keeps.
+/// [P5]): outputs P_h K_h^n P_h⁻¹ x_0. Keeps whatever the base keeps. The base stepper,
+/// its accessors and the loop over the sub-steps are the composition core's
+/// (composition_core.hpp), shared with ComposedStepper.
 template <class Scheme, class Scene_>
   requires SchemeFor<Scheme, Scene_>
-class ProcessedStepper {
-  static_assert(Scheme::symmetric,
-                "ProcessedStepper: this scheme is not symmetric (its trait `symmetric` is false), so a "
-                "processed composition of it is not of order 6");
+class ProcessedStepper : public detail::CompositionCore<Scheme, Scene_> {
+  using Core = detail::CompositionCore<Scheme, Scene_>;
 
  public:
   /// The scene type.
@@ -116,9 +83,9 @@ class ProcessedStepper {
   /// The scalar type of the scene.
   using Scalar = typename Scene::Scalar;
   /// The stepper of one sub-step.
-  using Base = Stepper<Scheme, Scene>;
+  using Base = typename Core::Base;
   /// The memory of the base scheme.
-  using BaseMemory = typename Base::Memory;
+  using BaseMemory = typename Core::BaseMemory;
   /// The kernel state and the base memories.
   using Memory = ProcessedMemory<Scalar, BaseMemory>;
   /// A state with its kernel state and memories.
@@ -129,10 +96,8 @@ class ProcessedStepper {
   /// Throws invalid_input if the base scheme, with its parameters, is not symmetric
   /// (Simo-α with α ≠ ½).
   explicit ProcessedStepper(Scheme scheme, Scene scene, NewtonOptions<Scalar> options = {})
-      : base_(std::move(scheme), std::move(scene), options), coefficients_(Coefficients::bcm13()) {
-    if (!base_.symmetric())
-      detail::fail("processed composition: needs a symmetric base scheme; ", Scheme::name,
-                   " with these parameters is not symmetric (Simo-alpha needs alpha = 0.5)");
+      : Core(std::move(scheme), std::move(scene), options), coefficients_(Coefficients::bcm13()) {
+    this->require_symmetric("processed composition:");
   }
 
   /// A trajectory starting at `s`, with fresh memory (the kernel is primed by the first step).
@@ -215,34 +180,20 @@ class ProcessedStepper {
   const Coefficients& coefficients() const { return coefficients_; }
   /// Not symmetric: P_{−h} ≠ P_h.
   bool symmetric() const { return false; }
-  /// What the outputs keep exactly: what the base scheme keeps (all are products of base steps).
-  Keeps keeps() const { return base_.keeps(); }
-
-  /// The stepper of one sub-step.
-  const Base& base() const { return base_; }
-  /// The base scheme.
-  const Scheme& scheme() const { return base_.scheme(); }
-  /// The scene.
-  const Scene& scene() const { return base_.scene(); }
-  /// The Newton options of every sub-step.
-  const NewtonOptions<Scalar>& options() const { return base_.options(); }
-  /// The Newton options of every sub-step, to modify.
-  NewtonOptions<Scalar>& options() { return base_.options(); }
 
  private:
-  /// Base steps w_0 h, w_1 h, … on s, sub-step i with memory mem(i); s ends at its start
-  /// time + (sum of weights)·h, given exactly as `t_end`. Reports summed as for a composition.
+  /// In which order sequence() takes the weights.
+  enum class Order { as_listed, reversed };
+
+  /// Base steps w_0 h, w_1 h, … (or from the last weight, Order::reversed) on s, sub-step
+  /// i with memory mem(i); s ends at its start time + (sum of weights)·h, given exactly as
+  /// `t_end`. Reports summed as for a composition. On failure `s` is partly advanced: the
+  /// callers work on copies.
   template <std::size_t N, class MemoryOf>
-  StepReport<Scalar> sequence(State<Scalar>& s, const std::array<Scalar, N>& w, bool reversed, Scalar h, Scalar t_end,
+  StepReport<Scalar> sequence(State<Scalar>& s, const std::array<Scalar, N>& w, Order order, Scalar h, Scalar t_end,
                               MemoryOf&& mem) const {
-    StepReport<Scalar> total;
-    for (std::size_t k = 0; k < N; ++k) {
-      const std::size_t i = reversed ? N - 1 - k : k;
-      total.absorb(base_.step(s, mem(k), w[i] * h));
-      if (!total.ok()) return total;
-    }
-    s.time = t_end;  // Σw·h differs from the intended sum by round-off
-    return total;
+    const auto weight = [&](std::size_t k) { return w[order == Order::reversed ? N - 1 - k : k]; };
+    return this->base_steps(s, N, weight, h, t_end, mem, [](std::size_t) {});
   }
 
   /// The kernel's h for a step of size h: the primed one if h differs from it by the
@@ -262,7 +213,7 @@ class ProcessedStepper {
     for (std::size_t j = 0; j < minus_p.size(); ++j) minus_p[j] = -coefficients_.processor[j];
     std::array<BaseMemory, Coefficients::processor_stages> fresh{};
     State<Scalar> y = x;
-    const StepReport<Scalar> rep = sequence(y, minus_p, false, h, x.time, [&](std::size_t k) -> BaseMemory& { return fresh[k]; });
+    const StepReport<Scalar> rep = sequence(y, minus_p, Order::as_listed, h, x.time, [&](std::size_t k) -> BaseMemory& { return fresh[k]; });
     if (!rep.ok()) return rep;
     m.kernel = y;
     m.h = h;
@@ -275,7 +226,7 @@ class ProcessedStepper {
     // P_h = Φ_{p_1 h} ∘ … ∘ Φ_{p_12 h}: the steps p_12 h, …, p_1 h in turn [P5].
     x = m.kernel;
     std::array<BaseMemory, Coefficients::processor_stages> fresh{};
-    const StepReport<Scalar> rep = sequence(x, coefficients_.processor, true, m.h, m.kernel.time,
+    const StepReport<Scalar> rep = sequence(x, coefficients_.processor, Order::reversed, m.h, m.kernel.time,
                                             [&](std::size_t k) -> BaseMemory& { return fresh[k]; });
     if (rep.ok()) m.pending = false;
     return rep;
@@ -285,11 +236,8 @@ class ProcessedStepper {
   /// processor must change: a new h, or a fresh memory).
   StepReport<Scalar> advance_kernel(State<Scalar>& x, Memory& m, Scalar h) const {
     h = primed_step(m, h);
-    StepReport<Scalar> total;
-    if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
-      total.status = StepStatus::invalid_step;
-      return total;
-    }
+    StepReport<Scalar> total = detail::check_step_size(h);
+    if (!total.ok()) return total;
     if (m.h != h) {
       // Fresh memory, or another h: the kernel must be P_h⁻¹ of the current output.
       if (m.h != Scalar(0) && m.pending) {
@@ -306,11 +254,10 @@ class ProcessedStepper {
   /// K_h = Φ_{a_13 h} ∘ … ∘ Φ_{a_1 h} on m.kernel, with the kernel's memories [P5].
   StepReport<Scalar> kernel_step(Memory& m, Scalar h) const {
     const Scalar t_end = m.kernel.time + h;
-    return sequence(m.kernel, coefficients_.kernel, false, h, t_end,
+    return sequence(m.kernel, coefficients_.kernel, Order::as_listed, h, t_end,
                     [&](std::size_t k) -> BaseMemory& { return m.kernel_memory[k]; });
   }
 
-  Base base_;
   Coefficients coefficients_;
 };
 

@@ -68,11 +68,8 @@ class Stepper {
       return step(state, memory, h);
     } else {
       // Fresh memory, discarded afterwards: no need to keep a copy for a failed step.
-      StepReport<Scalar> rep;
-      if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
-        rep.status = StepStatus::invalid_step;
-        return rep;
-      }
+      StepReport<Scalar> rep = detail::check_step_size(h);
+      if (!rep.ok()) return rep;
       State<Scalar> next;
       Memory scratch{};
       rep = scheme_.step(scene_, static_cast<const State<Scalar>&>(state), h, options_, next, scratch);
@@ -86,11 +83,8 @@ class Stepper {
   /// The step on an explicit (state, memory) pair: both are committed on success only.
   /// ComposedStepper and integrate() use it; most callers want step(traj, h).
   StepReport<Scalar> step(State<Scalar>& state, Memory& memory, Scalar h) const {
-    StepReport<Scalar> rep;
-    if (!std::isfinite(static_cast<double>(h)) || h == Scalar(0)) {
-      rep.status = StepStatus::invalid_step;
-      return rep;
-    }
+    StepReport<Scalar> rep = detail::check_step_size(h);
+    if (!rep.ok()) return rep;
     State<Scalar> next;
     if constexpr (writes_memory_on_success_v<Scheme, Scene>) {
       // The scheme changes `memory` only when it succeeds, after checking `next` with

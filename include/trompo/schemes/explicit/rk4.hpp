@@ -64,13 +64,8 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
 struct RK4 {
   /// "rk4".
   static constexpr const char* name = "rk4";
-  /// Order of accuracy.
-  static constexpr int order = 4;
-  /// Not symmetric: may not be composed.
-  static constexpr bool symmetric = false;
-  /// Keeps nothing exactly.
-  template <class Scene>
-  static constexpr Keeps keeps{};
+  /// Order 4; not symmetric (may not be composed); keeps nothing exactly; memoryless.
+  static constexpr SchemeTraits traits{.order = 4};
 
   /// One explicit step (the scheme contract of scheme.hpp; the Newton options are unused).
   template <class Scene>

@@ -19,6 +19,7 @@
 #include "trompo/solvers/damped_newton.hpp"
 #include "trompo/model/end_torque.hpp"
 #include "trompo/lie/lie_kit.hpp"
+#include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/schemes/scheme.hpp"
 #include "trompo/lie/so3.hpp"
@@ -41,12 +42,11 @@ struct ConstrainedTrapezoidMemory {
 /// Constrained trapezoid [T17]–[T20]: energy exact by a Lagrange multiplier.
 struct ConstrainedTrapezoid {
   static constexpr const char* name = "constrained-trapezoid";  ///< CLI and report name
-  static constexpr int order = 2;                                ///< order of accuracy
-  /// The multiplier acts along the gradient at t_{n+1} only: not symmetric.
-  static constexpr bool symmetric = false;
-  /// H exactly; μ and π drift as the plain trapezoid's [T20].
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = true};
+  /// Order 2; not symmetric (the multiplier acts along the gradient at t_{n+1} only); H
+  /// exactly, μ and π drift as the plain trapezoid's [T20]; its memory (the last increment
+  /// and multiplier) is the predictor of [T19], carried along the trajectory.
+  static constexpr SchemeTraits traits{
+      .order = 2, .keeps = [](SceneKind) { return Keeps{.energy = true}; }, .memory = MemoryUse::carried};
   /// The per-trajectory memory: the last increment and multiplier (scheme.hpp).
   template <class Scene>
   using Memory = ConstrainedTrapezoidMemory<typename Scene::Scalar>;
@@ -171,13 +171,13 @@ struct ConstrainedTrapezoid {
     x.template head<3>() = Theta0 - h * in.omega;
     x(3) = Scalar(0);
     Matrix4 K;
-    StepReport<Scalar> rep = detail::damped_newton<4>(res, x, W, options, Theta0.norm() + tiny, &K);
+    StepReport<Scalar> rep =
+        detail::damped_newton<4>(res, x, options, DampedNewtonSolve<4, Scalar>{.weights = W, .x_scale = Theta0.norm() + tiny, .tangent = &K});
     if (!rep.ok()) return rep;
     const Vector3 Theta = res.increment(x);
     // Branch rule (NewtonOptions) on the 3×3 block K + λG (→ (2/h)J as h → 0).
     const Matrix3 K3 = K.template topLeftCorner<3, 3>();
-    if (!(Theta.norm() < options.max_increment) || !((Theta - Theta0).norm() <= options.max_correction) ||
-        !(K3.determinant() * h > Scalar(0))) {
+    if (!detail::on_branch(options, Theta.norm(), Scalar((Theta - Theta0).norm()), Scalar(K3.determinant() * h))) {
       rep.status = StepStatus::wrong_branch;
       return rep;
     }

@@ -25,6 +25,7 @@
 
 #include "trompo/solvers/damped_newton.hpp"
 #include "trompo/lie/lie_kit.hpp"
+#include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/schemes/scheme.hpp"
@@ -56,13 +57,19 @@ struct EnergyDecayingMemory {
 /// Energy-decaying, momentum-map-exact scheme [T12]–[T16]; χ = 0: energy-momentum.
 struct EnergyDecaying {
   static constexpr const char* name = "energy-decaying";  ///< CLI and report name
-  static constexpr int order = 2;  ///< for χ = 0 and the sensor (order_of_accuracy())
-  static constexpr bool symmetric = true;  ///< for χ = 0 only (is_symmetric())
-  /// μ exactly, π on the free body, and H_{n+1} ≤ H_n at every step; H exactly for χ = 0
-  /// (kept()).
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = false, .momentum_map = true, .spatial_momentum = Scene::is_free,
-                               .energy_decays = true};
+  /// Order 2 for χ = 0 and the sensor, symmetric for χ = 0 only (refined()); μ exactly, π on
+  /// the free body, and H_{n+1} ≤ H_n at every step; H exactly for χ = 0 (refined()). Its
+  /// memory (the last increment, the sensor's history) is part of the trajectory.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps =
+          [](SceneKind s) {
+            return Keeps{.energy = false, .momentum_map = true, .spatial_momentum = s.is_free, .energy_decays = true};
+          },
+      .memory = MemoryUse::carried,
+      .refined = true,
+      .validated = true};
   /// The per-trajectory memory: the last increment and the sensor's history (scheme.hpp).
   template <class Scene>
   using Memory = EnergyDecayingMemory<typename Scene::Scalar>;
@@ -79,16 +86,20 @@ struct EnergyDecaying {
     if (!(chi >= 0.0 && chi <= 1.0)) detail::fail("energy-decaying: chi must be in [0, 1], got ", chi);
   }
 
-  /// Symmetric only without dissipation.
-  bool is_symmetric() const { return chi == 0.0; }
-  /// 1 for a constant χ > 0 [T15], else 2.
-  int order_of_accuracy() const { return chi > 0.0 && schedule == ChiSchedule::constant ? 1 : 2; }
-  /// H exactly when χ = 0.
-  template <class Scene>
-  Keeps kept() const {
-    Keeps k = keeps<Scene>;
-    k.energy = chi == 0.0;
-    return k;
+  /// The traits with these parameters: symmetric only without dissipation; order 1 for a
+  /// constant χ > 0 [T15], else 2; H exactly when χ = 0.
+  constexpr SchemeTraits refined() const {
+    SchemeTraits t = traits;
+    t.symmetric = chi == 0.0;
+    t.order = chi > 0.0 && schedule == ChiSchedule::constant ? 1 : 2;
+    if (chi == 0.0) {
+      t.keeps = [](SceneKind s) {
+        Keeps k = traits.keeps(s);
+        k.energy = true;
+        return k;
+      };
+    }
+    return t;
   }
 
   /// The residual R of [T12] and its tangent [T14], as functions of y = Θ − hΩ_n (the
@@ -195,13 +206,13 @@ struct EnergyDecaying {
     Vector3 y = Theta0 - h * in.omega;
     Matrix3 K;
     const Vector3 W = Vector3::Constant(weight);
-    StepReport<Scalar> rep = detail::damped_newton<3>(res, y, W, options, Theta0.norm() + tiny, &K);
+    StepReport<Scalar> rep =
+        detail::damped_newton<3>(res, y, options, DampedNewtonSolve<3, Scalar>{.weights = W, .x_scale = Theta0.norm() + tiny, .tangent = &K});
     if (!rep.ok()) return rep;
     const Vector3 Theta = res.increment(y);
     // Branch rule (NewtonOptions): |Θ| < max_increment, ‖Θ − Θ⁰‖ ≤ max_correction, and
     // det(K)·h > 0 (K → 2J/(h(1+c)) as h → 0).
-    if (!(Theta.norm() < options.max_increment) || !((Theta - Theta0).norm() <= options.max_correction) ||
-        !(K.determinant() * h > Scalar(0))) {
+    if (!detail::on_branch(options, Theta.norm(), Scalar((Theta - Theta0).norm()), Scalar(K.determinant() * h))) {
       rep.status = StepStatus::wrong_branch;
       return rep;
     }

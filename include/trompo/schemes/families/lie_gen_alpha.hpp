@@ -19,6 +19,7 @@
 #include "trompo/solvers/damped_newton.hpp"
 #include "trompo/model/end_torque.hpp"
 #include "trompo/errors.hpp"
+#include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/scheme.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
@@ -40,11 +41,10 @@ struct GenAlphaMemory {
 /// Lie-group generalised-α on SO(3) ([T7]–[T11]).
 struct LieGenAlpha {
   static constexpr const char* name = "lie-gen-alpha";  ///< CLI and report name
-  static constexpr int order = 2;                       ///< for every ρ∞ and both starts
-  static constexpr bool symmetric = false;              ///< not composable
-  /// Nothing exactly: neither H nor μ ([T11]; measured in tests/test_families.cpp).
-  template <class Scene>
-  static constexpr Keeps keeps{};
+  /// Order 2 for every ρ∞ and both starts; not symmetric (not composable); keeps nothing
+  /// exactly, neither H nor μ ([T11]; measured in tests/test_families.cpp); its memory
+  /// (Ω̇_n, a_n) is part of the trajectory; ρ∞ is checked by validate().
+  static constexpr SchemeTraits traits{.order = 2, .memory = MemoryUse::carried, .validated = true};
   /// The per-trajectory memory: Ω̇_n and a_n (scheme.hpp).
   template <class Scene>
   using Memory = GenAlphaMemory<typename Scene::Scalar>;
@@ -210,14 +210,15 @@ struct LieGenAlpha {
     Vector3 w = m.omega_rate;  // predictor w⁰ = Ω̇_n [T9]
     const Vector3 w0 = w;
     Matrix3 K;
-    rep = detail::damped_newton<3>(res, w, W, options, weight / J.norm(), &K);
+    rep = detail::damped_newton<3>(res, w, options,
+                                   DampedNewtonSolve<3, Scalar>{.weights = W, .x_scale = weight / J.norm(), .tangent = &K});
     if (!rep.ok()) return rep;
     const Vector3 a1 = res.a_next(w);
     const Vector3 q = res.increment(a1);
     // Branch rule (NewtonOptions): the rotation increment below max_increment, its
     // Newton correction β′|w − w⁰| below max_correction, and det S > 0 (S → J as h → 0).
-    if (!(q.norm() < options.max_increment) ||
-        !(std::abs(res.beta_prime()) * (w - w0).norm() <= options.max_correction) || !(K.determinant() > Scalar(0))) {
+    if (!detail::on_branch(options, q.norm(), Scalar(std::abs(res.beta_prime()) * (w - w0).norm()),
+                           Scalar(K.determinant()))) {
       rep.status = StepStatus::wrong_branch;
       return rep;
     }

@@ -22,6 +22,7 @@
 #include "trompo/errors.hpp"
 #include "trompo/solvers/newton.hpp"
 #include "trompo/schemes/history.hpp"
+#include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
@@ -146,83 +147,86 @@ class GBResidual {
   const StepData<Scene>& d_;
 };
 
+/// A Géradin–Bauchau step as the problem of detail::implicit_step: Newton's unknown is
+/// z = e − hΩ_n/2 (see GBResidual), the history extrapolates e.
+template <GBForm Form, class Scene>
+class GBProblem {
+ public:
+  using Scalar = typename Scene::Scalar;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+
+  GBProblem(const StepData<Scene>& d, const State<Scalar>& in)
+      : d_(d), in_(in), base_((d.h / Scalar(2)) * in.omega) {}
+
+  /// [T4] or [T5] and its tangent.
+  GBResidual<Form, Scene> residual() const { return GBResidual<Form, Scene>(d_); }
+  /// [P1]: e⁰ the extrapolated e (capped inside the domain |e| < 1); Θ⁰ from it.
+  ImplicitStart<Scalar> from_history(const Vector3& extrapolated) const {
+    Vector3 e0 = extrapolated;
+    if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
+    const Scalar s0 = e0.norm();
+    const Vector3 Theta0 = s0 > Scalar(0) ? Vector3(e0 * (Scalar(2) * std::asin(s0) / s0)) : Vector3(Scalar(2) * e0);
+    return {e0 - base_, Theta0, e0.norm()};
+  }
+  /// e⁰ ≈ sin(|Θ⁰|/2) Θ⁰/|Θ⁰| from the predicted Θ⁰ = hΩ_n + (h²/2)Ω̇_n.
+  ImplicitStart<Scalar> memoryless() const {
+    const Vector3 Theta0 = d_.predicted_increment();
+    const Scalar theta0 = Theta0.norm();
+    // e = n sin(θ/2) = Θ · ½ sinc(θ/2); capped inside the domain |e| < 1.
+    Vector3 e0 = Theta0 * (sinc(theta0 / 2) / 2);
+    if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
+    return {e0 - base_, Theta0, e0.norm()};
+  }
+  /// The increment angle Δφ = 2 asin|e| and Θ = Δφ e/|e|.
+  ImplicitRoot<Scalar> root(const Vector3& z) const {
+    const Vector3 e = base_ + z;
+    const Scalar s = e.norm();
+    const Scalar dphi = Scalar(2) * std::asin(s);
+    return {s > Scalar(0) ? Vector3(e * (dphi / s)) : Vector3(Scalar(2) * e), dphi};
+  }
+  /// The fold rule det(K J⁻¹)·h > 0 (K → (4/h)F J as h → 0; [T5]: K → J, h² > 0).
+  Scalar orientation(const Matrix3& K) const {
+    return (K * d_.scene.body().inertia_inverse()).determinant() * weight();
+  }
+  /// The same from K⁻¹ (det J⁻¹ > 0: det K⁻¹ has the sign of det(K J⁻¹)).
+  Scalar orientation_inverse(const Matrix3& K_inv) const { return K_inv.determinant() * weight(); }
+  /// Λ_{n+1} = Λ_n ⊗ (e0, e), Ω_{n+1} = 4e/h − Ω_n from the root z.
+  void advance(const Vector3& z, State<Scalar>& out) const {
+    using std::sqrt;
+    const Scalar h = d_.h;
+    const Vector3 e = base_ + z;
+    const Eigen::Quaternion<Scalar> q(sqrt(Scalar(1) - e.squaredNorm()), e.x(), e.y(), e.z());  // F²
+    out.rotation = in_.rotation * SO3<Scalar>::renormalized(q);
+    out.omega = in_.omega + Scalar(4) * z / h;                    // Ω_{n+1} = 4e/h − Ω_n (38)
+    out.time = in_.time + h;
+  }
+  /// The history records e.
+  Vector3 recorded(const Vector3& z) const { return base_ + z; }
+
+ private:
+  /// The sign factor of the fold rule: h for [T4], 1 for [T5].
+  Scalar weight() const { return Form == GBForm::paper ? Scalar(1) : d_.h; }
+
+  const StepData<Scene>& d_;
+  const State<Scalar>& in_;
+  Vector3 base_;  ///< hΩ_n/2
+};
+
 /// One Géradin–Bauchau step: Newton on [T4] or [T5] from e⁰ ≈ sin(|Θ⁰|/2) Θ⁰/|Θ⁰|,
-/// then Λ_{n+1} = Λ_n ⊗ (e0, e), Ω_{n+1} = 4e/h − Ω_n. With `history` (the scheme's
-/// memory, null for none) e⁰ is the extrapolation of the last accepted e and the first
-/// tangent the carried one, when the history allows ([P1]–[P3], as simo_step); a failed
-/// solve from there is retried once from the memoryless start.
+/// then Λ_{n+1} = Λ_n ⊗ (e0, e), Ω_{n+1} = 4e/h − Ω_n, by the implicit-step sequence
+/// (implicit_step.hpp). With `history` (the scheme's memory, null for none) e⁰ is the
+/// extrapolation of the last accepted e and the first tangent the carried one, when the
+/// history allows ([P1]–[P3], as simo_step); a failed solve from there is retried once
+/// from the memoryless start.
 template <GBForm Form, class Scene>
 StepReport<typename Scene::Scalar> gb_step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                            typename Scene::Scalar h,
                                            const NewtonOptions<typename Scene::Scalar>& opt,
                                            State<typename Scene::Scalar>& out,
                                            IncrementHistory<typename Scene::Scalar>* history = nullptr) {
-  using Scalar = typename Scene::Scalar;
-  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-  using std::sin;
   const StepData<Scene> d(scene, in, h);
-  const Vector3 base = (h / Scalar(2)) * in.omega;
-  Vector3 Theta0, e0, z;
-  Matrix3 K, K_inv;
-  StepReport<Scalar> rep;
-  Vector3 Theta;
-  // Branch rule (NewtonOptions): the increment angle Δφ = 2 asin|e|, its distance to Θ⁰,
-  // and the fold rule det(K J⁻¹)·h > 0 (K → (4/h)F J as h → 0; [T5]: K → J, h² > 0);
-  // det K⁻¹ for the tangent a history solve corrected with last.
-  const auto on_branch = [&](bool carried_tangent) {
-    const Vector3 e = base + z;
-    const Scalar s = e.norm();
-    const Scalar dphi = Scalar(2) * std::asin(s);
-    Theta = s > Scalar(0) ? Vector3(e * (dphi / s)) : Vector3(Scalar(2) * e);
-    // (det J⁻¹ > 0: det K⁻¹ has the sign of det(K J⁻¹).)
-    const Scalar orientation = (carried_tangent ? K_inv.determinant() : (K * scene.body().inertia_inverse()).determinant()) *
-                               (Form == GBForm::paper ? Scalar(1) : h);
-    if (!(dphi < opt.max_increment) || !((Theta - Theta0).norm() <= opt.max_correction) ||
-        !(orientation > Scalar(0)))
-      rep.status = StepStatus::wrong_branch;
-    return rep.ok();
-  };
-  // [P2]: from the history only when it predicted the last step well (trusted).
-  const bool from_history = history && history->trusted(h) && opt.reuse_tangent > Scalar(0);
-  bool solved = false;
-  Vector3 extrapolated = Vector3::Zero();  // [P1] (from_history only), kept for the history's record
-  if (from_history) {
-    // [P1] the extrapolated e, [P3] the carried tangent; Θ⁰ (for the branch rule) from e⁰.
-    e0 = extrapolated = history->extrapolate();
-    if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
-    const Scalar s0 = e0.norm();
-    Theta0 = s0 > Scalar(0) ? Vector3(e0 * (Scalar(2) * std::asin(s0) / s0)) : Vector3(Scalar(2) * e0);
-    z = e0 - base;
-    K_inv = history->tangent_inverse;
-    rep = newton(GBResidual<Form, Scene>(d), z, opt, e0.norm(), &K, &K_inv, true);
-    solved = rep.ok() && on_branch(true);
-  }
-  if (!solved) {
-    const StepReport<Scalar> spent = rep;  // the history solve's work, if any
-    Theta0 = d.predicted_increment();
-    const Scalar theta0 = Theta0.norm();
-    // e = n sin(θ/2) = Θ · ½ sinc(θ/2); capped inside the domain |e| < 1.
-    e0 = Theta0 * (sinc(theta0 / 2) / 2);
-    if (e0.norm() > Scalar(0.99)) e0 *= Scalar(0.99) / e0.norm();
-    z = e0 - base;  // Newton's unknown (see GBResidual)
-    rep = newton(GBResidual<Form, Scene>(d), z, opt, e0.norm(), &K, &K_inv);
-    rep.iterations += spent.iterations;
-    rep.evaluations += spent.evaluations;
-    rep.tangents += spent.tangents;
-    if (!rep.ok() || !on_branch(false)) return rep;
-  }
-  const Vector3 e = base + z;
-  using std::sqrt;
-  const Eigen::Quaternion<Scalar> q(sqrt(Scalar(1) - e.squaredNorm()), e.x(), e.y(), e.z());  // F²
-  out.rotation = in.rotation * SO3<Scalar>::renormalized(q);
-  out.omega = in.omega + Scalar(4) * z / h;                    // Ω_{n+1} = 4e/h − Ω_n (38)
-  out.time = in.time + h;
-  // The step's one check of its result (the Stepper leaves it to the scheme:
-  // writes_memory_on_success, scheme.hpp), before the memory is written.
-  if (!committable(out)) rep.status = StepStatus::non_finite;
-  if (rep.ok() && history) history->record(e, h, K_inv, from_history ? &extrapolated : nullptr);
-  return rep;
+  return implicit_step(GBProblem<Form, Scene>(d, in), opt, h, out, history);
 }
 
 }  // namespace detail

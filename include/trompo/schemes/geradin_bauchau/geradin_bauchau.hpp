@@ -13,14 +13,19 @@ namespace trompo {
 struct GeradinBauchau {
   /// "geradin-bauchau".
   static constexpr const char* name = "geradin-bauchau";
-  /// Order of accuracy.
-  static constexpr int order = 2;
-  /// Symmetric: may be composed.
-  static constexpr bool symmetric = true;
-  /// Keeps H (potentials linear in Λ), μ and π (free body).
-  template <class Scene>
-  static constexpr Keeps keeps{
-      .energy = Scene::potentials_linear, .momentum_map = true, .spatial_momentum = Scene::is_free};
+  /// Order 2, symmetric (may be composed); keeps H (potentials linear in Λ), μ and π (free
+  /// body). Its memory, the history predictor's, is only a hint: a plain State may be
+  /// stepped (with fresh memory). The step writes the memory only when it succeeds, after
+  /// checking its result (scheme.hpp): the Stepper steps the memory in place, without copies.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps =
+          [](SceneKind s) {
+            return Keeps{.energy = s.potentials_linear, .momentum_map = true, .spatial_momentum = s.is_free};
+          },
+      .memory = MemoryUse::hint,
+      .writes_memory_on_success = true};
 
   /// Whether the steps of a Trajectory start from the history predictor and the carried
   /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]), extrapolating e. Off:
@@ -29,11 +34,6 @@ struct GeradinBauchau {
   /// The last increments e and tangent (IncrementHistory), per trajectory.
   template <class Scene>
   using Memory = IncrementHistory<typename Scene::Scalar>;
-  /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
-  static constexpr bool memory_is_hint = true;
-  /// The step writes the memory only when it succeeds, after checking its result
-  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
-  static constexpr bool writes_memory_on_success = true;
 
   /// One step: Newton on [T4] from the predictor, then Λ_{n+1} = Λ_n ⊗ (e0, e).
   template <class Scene>

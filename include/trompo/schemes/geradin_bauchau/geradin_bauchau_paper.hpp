@@ -11,13 +11,10 @@ namespace trompo {
 struct GeradinBauchauPaper {
   /// "geradin-bauchau-paper".
   static constexpr const char* name = "geradin-bauchau-paper";
-  /// Order of accuracy.
-  static constexpr int order = 2;
-  /// Symmetric: may be composed.
-  static constexpr bool symmetric = true;
-  /// Keeps H only (potentials linear in Λ); μ and π drift.
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = Scene::potentials_linear};
+  /// Order 2, symmetric (may be composed); keeps H only (potentials linear in Λ): μ and
+  /// π drift. Memoryless.
+  static constexpr SchemeTraits traits{
+      .order = 2, .symmetric = true, .keeps = [](SceneKind s) { return Keeps{.energy = s.potentials_linear}; }};
 
   /// One step: Newton on [T5] from the predictor, then Λ_{n+1} = Λ_n ⊗ (e0, e).
   template <class Scene>

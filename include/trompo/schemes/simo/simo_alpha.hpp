@@ -17,6 +17,16 @@ struct SimoAlpha {
   /// Throws invalid_input unless α ∈ [0, 1].
   explicit SimoAlpha(double a) : alpha(a) { validate(); }
 
+  /// Order 2 and symmetric at α = ½ (refined(): order 1 and not symmetric otherwise); keeps
+  /// μ, and H and π on the free body. Memoryless.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps =
+          [](SceneKind s) { return Keeps{.energy = s.is_free, .momentum_map = true, .spatial_momentum = s.is_free}; },
+      .refined = true,
+      .validated = true};
+
   /// Throws invalid_input unless α ∈ [0, 1] (Stepper calls it: alpha is a public field).
   void validate() const {
     if (!(alpha >= 0.0 && alpha <= 1.0)) detail::fail("simo-alpha: alpha must be in [0, 1], got ", alpha);
@@ -24,16 +34,14 @@ struct SimoAlpha {
 
   /// "simo-alpha".
   static constexpr const char* name = "simo-alpha";
-  static constexpr int order = 2;         ///< at α = ½; 1 otherwise (order_of_accuracy)
-  static constexpr bool symmetric = true;  ///< at α = ½ only (is_symmetric)
-  /// Keeps μ; H and π on the free body.
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = Scene::is_free, .momentum_map = true, .spatial_momentum = Scene::is_free};
 
-  /// Symmetric only for α = ½.
-  bool is_symmetric() const { return alpha == 0.5; }
-  /// Order 2 for α = ½, 1 otherwise.
-  int order_of_accuracy() const { return alpha == 0.5 ? 2 : 1; }
+  /// The traits at this α: symmetric and of order 2 for α = ½ only, order 1 otherwise.
+  constexpr SchemeTraits refined() const {
+    SchemeTraits t = traits;
+    t.symmetric = alpha == 0.5;
+    t.order = alpha == 0.5 ? 2 : 1;
+    return t;
+  }
 
   /// One step: Newton on [T1] from the predictor, then (9)–(10).
   template <class Scene>

@@ -12,13 +12,9 @@ namespace trompo {
 struct SimoKappa {
   /// "simo-kappa".
   static constexpr const char* name = "simo-kappa";
-  /// Order of accuracy.
-  static constexpr int order = 2;
-  /// Symmetric: may be composed.
-  static constexpr bool symmetric = true;
-  /// Keeps H, μ and π (free body).
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = true, .momentum_map = true, .spatial_momentum = Scene::is_free};
+  /// Order 2, symmetric; keeps H, μ and π (free body); the history predictor's memory
+  /// (detail::energy_exact_simo_traits).
+  static constexpr SchemeTraits traits = detail::energy_exact_simo_traits;
 
   /// Whether the steps of a Trajectory start from the history predictor and the carried
   /// tangent (detail/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved
@@ -27,11 +23,6 @@ struct SimoKappa {
   /// The last increments and tangent (IncrementHistory), per trajectory.
   template <class Scene>
   using Memory = IncrementHistory<typename Scene::Scalar>;
-  /// The memory only speeds steps up: a plain State may be stepped (with fresh memory).
-  static constexpr bool memory_is_hint = true;
-  /// The step writes the memory only when it succeeds, after checking its result
-  /// (scheme.hpp): the Stepper steps the memory in place, without copies.
-  static constexpr bool writes_memory_on_success = true;
 
   /// One step: Newton on [T1] with κ from (19), then (9)–(10).
   template <class Scene>

@@ -24,12 +24,26 @@
 #include "trompo/errors.hpp"
 #include "trompo/solvers/newton.hpp"
 #include "trompo/schemes/history.hpp"
+#include "trompo/schemes/implicit_step.hpp"
+#include "trompo/schemes/scheme.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
 
 namespace trompo {
 namespace detail {
+
+/// The traits of the energy-exact Simo schemes (Simo-κ, collocation): order 2, symmetric
+/// (may be composed); keep H, μ and π (free body). Their memory, the history predictor's,
+/// is only a hint: a plain State may be stepped (with fresh memory). The step writes the
+/// memory only when it succeeds, after checking its result (scheme.hpp): the Stepper
+/// steps the memory in place, without copies.
+inline constexpr SchemeTraits energy_exact_simo_traits{
+    .order = 2,
+    .symmetric = true,
+    .keeps = [](SceneKind s) { return Keeps{.energy = true, .momentum_map = true, .spatial_momentum = s.is_free}; },
+    .memory = MemoryUse::hint,
+    .writes_memory_on_success = true};
 
 /// Which member of the Simo family: how α and κ of [T1] are chosen.
 enum class SimoVariant {
@@ -436,12 +450,61 @@ class SimoResidual {
   mutable Scalar alpha_last_ = Scalar(0.5);
 };
 
-/// One step of a Simo scheme: Newton on [T1] from the predictor, then (9)–(10).
-/// With `history` (the scheme's memory, null for none) the predictor is the
-/// extrapolation of the last increments and the first tangent the carried one, when the
-/// history allows (IncrementHistory, [P1]–[P3]); if that solve fails, the step is solved
-/// once more from the memoryless start before it reports failure. On success the
-/// accepted Θ is recorded.
+/// A Simo step as the problem of detail::implicit_step: Newton's unknown is y = Θ − hΩ_n
+/// (see SimoResidual), the history extrapolates Θ.
+template <SimoVariant V, class Scene>
+class SimoProblem {
+ public:
+  using Scalar = typename Scene::Scalar;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+
+  SimoProblem(double alpha, const StepData<Scene>& d, const State<Scalar>& in)
+      : alpha_(alpha), d_(d), in_(in), base_(d.h * in.omega) {}
+
+  /// [T1] and [T3] (a fresh one per solve: collocation's general α follows its iterates).
+  SimoResidual<V, Scene> residual() const { return SimoResidual<V, Scene>(alpha_, d_); }
+  /// [P1]: Θ⁰ the extrapolated increment.
+  ImplicitStart<Scalar> from_history(const Vector3& Theta0) const { return start(Theta0); }
+  /// Θ⁰ = hΩ_n + (h²/2)Ω̇_n.
+  ImplicitStart<Scalar> memoryless() const { return start(d_.predicted_increment()); }
+  /// Θ = hΩ_n + y and |Θ|.
+  ImplicitRoot<Scalar> root(const Vector3& y) const {
+    const Vector3 Theta = base_ + y;
+    return {Theta, Theta.norm()};
+  }
+  /// The fold rule det(K J⁻¹)·h > 0 (K → (2/h)J as h → 0 on the continued branch); J is
+  /// positive definite, so the sign is that of det(K)·h.
+  Scalar orientation(const Matrix3& K) const { return K.determinant() * d_.h; }
+  /// The same from K⁻¹ (det K⁻¹ has the sign of det K).
+  Scalar orientation_inverse(const Matrix3& K_inv) const { return K_inv.determinant() * d_.h; }
+  /// (9)–(10) from the root y.
+  void advance(const Vector3& y, State<Scalar>& out) const {
+    const Scalar h = d_.h;
+    const Vector3 Theta = base_ + y;
+    // Λ_{n+1} = Λ_n exp(Θ̂), with no square root or division on the way (SO3::times_exp).
+    out.rotation = in_.rotation.times_exp(Theta, half_angle_from_squared(Theta.squaredNorm()));
+    out.omega = in_.omega + Scalar(2) * y / h;                // Ω_{n+1} = 2Θ/h − Ω_n  (9)
+    out.time = in_.time + h;
+  }
+  /// The history records Θ.
+  Vector3 recorded(const Vector3& y) const { return base_ + y; }
+
+ private:
+  ImplicitStart<Scalar> start(const Vector3& Theta0) const { return {Theta0 - base_, Theta0, Theta0.norm()}; }
+
+  double alpha_;
+  const StepData<Scene>& d_;
+  const State<Scalar>& in_;
+  Vector3 base_;  ///< hΩ_n
+};
+
+/// One step of a Simo scheme: Newton on [T1] from the predictor, then (9)–(10), by the
+/// implicit-step sequence (implicit_step.hpp). With `history` (the scheme's memory, null
+/// for none) the predictor is the extrapolation of the last increments and the first
+/// tangent the carried one, when the history allows (IncrementHistory, [P1]–[P3]); if that
+/// solve fails, the step is solved once more from the memoryless start before it reports
+/// failure. On success the accepted Θ is recorded.
 template <SimoVariant V, class Scene>
 StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
                                              const State<typename Scene::Scalar>& in,
@@ -450,67 +513,14 @@ StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
                                              State<typename Scene::Scalar>& out,
                                              IncrementHistory<typename Scene::Scalar>* history = nullptr) {
   using Scalar = typename Scene::Scalar;
-  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   const StepData<Scene> d(scene, in, h);
-  using Residual = SimoResidual<V, Scene>;
   // The numerically projected α or κ of a general potential is resolved only to a
   // tolerance, so R is smooth only down to that level and the contraction estimates of
   // the simplified Newton are not reliable there (measured: 8× the energy error with
   // them): plain Newton for those.
   NewtonOptions<Scalar> options = opt;
-  if constexpr (Residual::general_projection) options.reuse_tangent = Scalar(0);
-  // Newton's unknown is y = Θ − hΩ_n (see SimoResidual).
-  const Vector3 base = h * in.omega;
-  // [P2]: from the history only when it predicted the last step well (trusted).
-  const bool from_history = history && history->trusted(h) && options.reuse_tangent > Scalar(0);
-  Vector3 Theta0;
-  Vector3 y;
-  Matrix3 K, K_inv;
-  StepReport<Scalar> rep;
-  // Branch rule (NewtonOptions): |Θ| < max_increment, ‖Θ − Θ⁰‖ ≤ max_correction, and the
-  // fold rule det(K J⁻¹)·h > 0 (K → (2/h)J as h → 0 on the continued branch); J is
-  // positive definite, so the sign is that of det(K)·h (of det(K⁻¹)·h for the tangent
-  // a history solve corrected with last, which may be the carried one).
-  const auto on_branch = [&](bool carried_tangent) {
-    const Vector3 Theta = base + y;
-    const Scalar fold = carried_tangent ? K_inv.determinant() : K.determinant();
-    if (!(Theta.norm() < opt.max_increment) || !((Theta - Theta0).norm() <= opt.max_correction) ||
-        !(fold * h > Scalar(0)))
-      rep.status = StepStatus::wrong_branch;
-    return rep.ok();
-  };
-  bool solved = false;
-  Vector3 extrapolated = Vector3::Zero();  // [P1] (from_history only), kept for the history's record
-  if (from_history) {
-    // [P1] the extrapolated increment, [P3] the carried tangent.
-    Theta0 = extrapolated = history->extrapolate();
-    y = Theta0 - base;
-    K_inv = history->tangent_inverse;
-    rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K, &K_inv, true);
-    solved = rep.ok() && on_branch(true);
-  }
-  if (!solved) {
-    // The memoryless step (and the fallback [P2] when the history's solve failed).
-    const StepReport<Scalar> spent = rep;  // the history solve's work, if any
-    Theta0 = d.predicted_increment();
-    y = Theta0 - base;
-    rep = newton(Residual(alpha, d), y, options, Theta0.norm(), &K, &K_inv);
-    rep.iterations += spent.iterations;
-    rep.evaluations += spent.evaluations;
-    rep.tangents += spent.tangents;
-    if (!rep.ok() || !on_branch(false)) return rep;
-  }
-  const Vector3 Theta = base + y;
-  // Λ_{n+1} = Λ_n exp(Θ̂), with no square root or division on the way (SO3::times_exp).
-  out.rotation = in.rotation.times_exp(Theta, half_angle_from_squared(Theta.squaredNorm()));
-  out.omega = in.omega + Scalar(2) * y / h;                // Ω_{n+1} = 2Θ/h − Ω_n  (9)
-  out.time = in.time + h;
-  // The step's one check of its result (the Stepper leaves it to the scheme:
-  // writes_memory_on_success, scheme.hpp), before the memory is written.
-  if (!committable(out)) rep.status = StepStatus::non_finite;
-  if (rep.ok() && history) history->record(Theta, h, K_inv, from_history ? &extrapolated : nullptr);
-  return rep;
+  if constexpr (SimoResidual<V, Scene>::general_projection) options.reuse_tangent = Scalar(0);
+  return implicit_step(SimoProblem<V, Scene>(alpha, d, in), options, h, out, history);
 }
 
 }  // namespace detail

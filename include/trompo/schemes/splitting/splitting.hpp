@@ -43,7 +43,7 @@
 #include <Eigen/Geometry>
 #include <type_traits>
 
-#include "trompo/steppers/composition.hpp"
+#include "trompo/schemes/coefficients.hpp"
 #include "trompo/schemes/splitting/flows.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/solvers/newton.hpp"
@@ -126,21 +126,25 @@ struct SplittingScheme {
 
   /// The scheme's name, as the CLI and the reports spell it.
   static constexpr const char* name = EnergyProjection ? "splitting-projected" : "splitting";
-  static constexpr int order = 2;          ///< of the default (Strang); see order_of_accuracy()
-  /// Every method is symmetric; the projected step is not (it pulls H back to the
-  /// trajectory's first energy, which h then −h does not undo), so it is not composable.
-  static constexpr bool symmetric = !EnergyProjection;
-  /// μ (under a load symmetric about γ) always; π where the scene's flow keeps it (no
-  /// potential, no applied torque: the free body, with or without a rotor); H only projected.
-  template <class Scene>
-  static constexpr Keeps keeps{.energy = EnergyProjection,
-                               .momentum_map = true,
-                               .spatial_momentum = !Scene::has_potential && !Scene::has_applied_torque};
-  /// With a time-dependent potential (gravity gradient) the projection targets the Jacobi
-  /// integral E_J [G4], [G5]: the projected splitting keeps it; the plain one keeps it in a
-  /// bounded band.
-  template <class Scene>
-  static constexpr bool keeps_jacobi_integral = EnergyProjection;
+  /// Order 2 for the default (Strang; refined(): the method's order). Every method is
+  /// symmetric; the projected step is not (it pulls H back to the trajectory's first
+  /// energy, which h then −h does not undo), so it is not composable. Keeps μ (under a load
+  /// symmetric about γ) always; π where the scene's flow keeps it (no potential, no applied
+  /// torque: the free body, with or without a rotor); H only projected (with a time-dependent
+  /// potential, H is the Jacobi integral E_J [G4], [G5]: projected, kept; plain, a bounded
+  /// band). Its memory (the working frame, the first energy) is part of the trajectory.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = !EnergyProjection,
+      .keeps =
+          [](SceneKind s) {
+            return Keeps{.energy = EnergyProjection,
+                         .momentum_map = true,
+                         .spatial_momentum = !s.has_potential && !s.has_applied_torque};
+          },
+      .keeps_jacobi_integral = EnergyProjection,
+      .memory = MemoryUse::carried,
+      .refined = true};
   /// Whether the energy projection [S12] runs after each step.
   static constexpr bool energy_projection = EnergyProjection;
 
@@ -148,8 +152,12 @@ struct SplittingScheme {
   template <class Scene>
   using Memory = detail::SplittingMemory<typename Scene::Scalar>;
 
-  /// The order of the chosen method (2, 4 or 6).
-  int order_of_accuracy() const { return order_of(method); }
+  /// The traits with the chosen method: its order (2, 4 or 6).
+  constexpr SchemeTraits refined() const {
+    SchemeTraits t = traits;
+    t.order = order_of(method);
+    return t;
+  }
 
   /// Throws invalid_input if the method is not offered on this scene (a Chin method with an
   /// applied torque or damping, whose force-gradient term [S7] does not apply).

@@ -48,6 +48,9 @@ CASES = [
      dict(case="ht1", composition="kahan-li-17", dt=0.02, t_end=1)),
     (["--case", "ht1", "--composition", "blanes-casas-murua-13", "--dt", "0.02", "--t-end", "1"],
      dict(case="ht1", composition="blanes-casas-murua-13", dt=0.02, t_end=1)),
+    # the other switch: a negative damping asked for by name
+    (["--case", "ht1", "--damping", "-0.5", "--allow-negative-damping", "--t-end", "1", "--every", "20"],
+     dict(case="ht1", damping=-0.5, allow_negative_damping=True, t_end=1, every=20)),
 ]
 
 
@@ -109,6 +112,10 @@ BAD = [
     (["--case", "ht2", "--scheme", "exact"], dict(case="ht2", scheme="exact")),
     (["--case", "ht1", "--every", "0"], dict(case="ht1", every=0)),
     (["--case", "ht1", "--rotor", "1,2"], None),
+    # issue 18: a negative damping unless asked for by name; an initial state that overflows
+    (["--case", "ht1", "--damping", "-1"], dict(case="ht1", damping=-1)),
+    (["--case", "ht1", "--omega", "1e200,0,0"], dict(case="ht1", omega=[1e200, 0, 0])),
+    (["--case", "ht1", "--rotation", "1e300,0,0"], dict(case="ht1", rotation=[1e300, 0, 0])),
 ]
 
 

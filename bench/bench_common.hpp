@@ -427,15 +427,13 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
 
 // ---- per-step family ---------------------------------------------------------------------------
 
-/// The timed loop of a per-step benchmark: steps of p.h_step by trompo::integrate, in
-/// batches of kStepBatch steps (Google Benchmark counts each batch as kStepBatch
-/// iterations, so the figure is per step), back to the start when a batch would pass the
-/// case's end time. A stepper with a deferred output (ProcessedStepper) thus advances its
-/// kernel and outputs once a batch: the cost per step of a run whose output is
-/// post-processed once, as integrate() without observer runs it (the one output costs
-/// 24 base steps over kStepBatch kernel steps of 13).
-inline constexpr long kStepBatch = 256;
-
+/// The timed loop of a per-step benchmark: whole runs of the case from its initial state to
+/// its end time (n steps of p.h_step) by trompo::integrate, each counted by Google Benchmark
+/// as n iterations (KeepRunningBatch), so the figure is per step. As the old step-by-step
+/// loop, every run starts a fresh trajectory (a history predictor refills its memory once
+/// a run); a batch shorter than the run would disturb it at every batch's last step (the
+/// grid's rounded last h). A stepper with a deferred output (ProcessedStepper) advances its
+/// kernel and outputs once a run, as integrate() without observer runs it.
 /// A stepper as integrate() sees it, that also sums the residual evaluations and tangents
 /// of its StepReports (integrate's summary counts Newton iterations only): the counters
 /// `evals` and `tangents` of the per-step family (docs/predictor.md). Forwards step(), and
@@ -480,15 +478,14 @@ struct Counted {
 template <class StepperT, class SceneT>
 void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<SceneT>& p) {
   const double h = p.h_step;
-  const double span = double(kStepBatch) * h;
+  const long n = std::max(1L, std::lround((p.c.t_end - p.c.initial.time) / h));
+  const double t_end = p.c.initial.time + double(n) * h;
   const Counted<StepperT> counted{stepper};
-  auto s = start_of(stepper, p.c.initial);
   long newton = 0;
-  while (st.KeepRunningBatch(kStepBatch)) {
-    if (s.time + span > p.c.t_end) s = start_of(stepper, p.c.initial);  // stay on the case's trajectory
-    const IntegrationSummary<double> sum = integrate(counted, s, s.time + span, h, NoObserver{}, no_recovery);
+  while (st.KeepRunningBatch(n)) {
+    auto s = start_of(stepper, p.c.initial);
+    const IntegrationSummary<double> sum = integrate(counted, s, t_end, h, NoObserver{}, no_recovery);
     newton += sum.iterations;
-    if (!sum.ok()) s = start_of(stepper, p.c.initial);
     benchmark::DoNotOptimize(s);
   }
   st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);

@@ -1,6 +1,10 @@
 #pragma once
 // The machinery of trompo-bench (bench_main.cpp): references, problems, instrumented runs,
-// labels, and the registration of sweep and per-step benchmarks. bench_main.cpp registers
+// labels, and the registration of sweep and per-step benchmarks. Every trompo run goes
+// through the library's driver, trompo::integrate() (drivers/integrate.hpp), with recovery
+// off: its grid, its handling of a scheme's memory (a fresh trajectory per run) and its
+// deferred output (a processed composition without observer outputs once) are the ones
+// timed, not a copy of them here. bench_main.cpp registers
 // the implicit schemes, RK4 and the odeint baselines; every file in bench/methods/ adds a
 // family of methods to the same executable through a MethodFamily (at the end of this
 // file), so that all methods are timed in one run on the same problems.
@@ -22,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "trompo/drivers/integrate.hpp"
 #include "trompo/model/cases.hpp"
 #include "trompo/steppers/composition.hpp"
 #include "trompo/steppers/processed_composition.hpp"
@@ -103,8 +108,8 @@ Reference composed_reference(const cases::Case<SceneT>& c, long n) {
   const ComposedStepper<SimoKappa, SceneT> stepper(SimoKappa{}, c.scene, 6);
   State<double> s = c.initial;
   const double h = c.t_end / double(n);
-  for (long i = 0; i < n; ++i)
-    if (!stepper.step(s, h).ok()) throw std::runtime_error("trompo-bench: the reference run failed");
+  if (!integrate(stepper, s, c.initial.time + double(n) * h, h, NoObserver{}, IntegrateOptions{.max_halvings = 0}).ok())
+    throw std::runtime_error("trompo-bench: the reference run failed");
   std::ostringstream os;
   os << "converged composed run (simo-kappa, order 6, h = " << h << ")";
   return {s.rotation.matrix(), s.omega, os.str(), ""};
@@ -189,53 +194,40 @@ struct RunResult {
   std::string why;
 };
 
-/// What a run steps: the stepper's Trajectory (state and scheme memory, e.g. the history
-/// predictor's) if it has one, else the State.
+/// The bench's runs: no recovery by sub-stepping, so that a configuration whose step fails
+/// is reported as failed (and not timed), not timed with sub-steps.
+inline constexpr IntegrateOptions no_recovery{.max_halvings = 0};
+
+/// What a per-step loop steps: the stepper's Trajectory (state and scheme memory, e.g. the
+/// history predictor's) if it has one, else the State.
 template <class StepperT>
 auto start_of(const StepperT& stepper, const State<double>& s) {
   if constexpr (requires { stepper.start(s); }) return stepper.start(s);
   else return s;
 }
 
-/// n steps of a trompo stepper (Stepper or ComposedStepper). Instrumented: also tracks
-/// the invariants after every step and counts Newton iterations.
-/// A stepper with a deferred output (ProcessedStepper): the timed run advances its kernel and
-/// outputs once at the end, as integrate() does without an observer; the instrumented run
-/// outputs after every step, to track the invariants.
-template <class StepperT, class StateT>
-constexpr bool defers_output_v = requires(const StepperT& st, StateT& s, double h) {
-  st.advance(s, h);
-  st.output(s);
-};
-
+/// n steps of h of a trompo stepper (Stepper, ComposedStepper, ProcessedStepper) from the
+/// case's initial state, by trompo::integrate. Timed (Instrumented = false): no observer,
+/// so a processed composition advances its kernel and outputs once at the end. Instrumented:
+/// an observer tracks the invariants after every step (a processed composition then outputs
+/// every step) and the summary gives the Newton iterations.
 template <bool Instrumented, class StepperT, class SceneT>
 RunResult run_trompo(const StepperT& stepper, const cases::Case<SceneT>& c, double h, long n) {
   RunResult r;
-  auto s = start_of(stepper, c.initial);
+  State<double> s = c.initial;
+  const double t_end = c.initial.time + double(n) * h;
+  IntegrationSummary<double> sum;
   Invariants<SceneT> inv(c.scene, s);
-  for (long i = 0; i < n; ++i) {
-    StepReport<double> rep;
-    if constexpr (!Instrumented && defers_output_v<StepperT, decltype(s)>) {
-      rep = stepper.advance(s, h);
-      if (rep.ok() && i + 1 == n) {
-        const StepReport<double> out = stepper.output(s);
-        if (!out.ok()) rep = out;
-      }
-    } else {
-      rep = stepper.step(s, h);
-    }
-    if (!rep.ok()) {
-      r.ok = false;
-      r.why = rep.reason();
-      break;
-    }
-    if constexpr (Instrumented) {
-      r.newton += rep.iterations;
-      inv.update(c.scene, s);
-    }
-    ++r.steps;
+  if constexpr (Instrumented) {
+    sum = integrate(stepper, s, t_end, h, [&](const State<double>& x) { inv.update(c.scene, x); }, no_recovery);
+    r.newton = sum.iterations;
+  } else {
+    sum = integrate(stepper, s, t_end, h, NoObserver{}, no_recovery);
   }
-  r.end = static_cast<const State<double>&>(s);
+  r.steps = sum.steps;
+  r.ok = sum.ok();
+  if (!r.ok) r.why = sum.reason();
+  r.end = s;
   r.max_dH = inv.max_dH;
   r.max_dmu = inv.max_dmu;
   return r;
@@ -435,30 +427,70 @@ void register_sweep_rk4(const Problem<SceneT>& p) {
 
 // ---- per-step family ---------------------------------------------------------------------------
 
-/// The timed loop of a per-step benchmark: steps of p.h_step, back to the start at the case's
-/// end time. A stepper with a deferred output (ProcessedStepper) is timed by its advance():
-/// the cost per step of a run whose output is post-processed once.
+/// The timed loop of a per-step benchmark: whole runs of the case from its initial state to
+/// its end time (n steps of p.h_step) by trompo::integrate, each counted by Google Benchmark
+/// as n iterations (KeepRunningBatch), so the figure is per step. As the old step-by-step
+/// loop, every run starts a fresh trajectory (a history predictor refills its memory once
+/// a run); a batch shorter than the run would disturb it at every batch's last step (the
+/// grid's rounded last h). A stepper with a deferred output (ProcessedStepper) advances its
+/// kernel and outputs once a run, as integrate() without observer runs it.
+/// A stepper as integrate() sees it, that also sums the residual evaluations and tangents
+/// of its StepReports (integrate's summary counts Newton iterations only): the counters
+/// `evals` and `tangents` of the per-step family (docs/predictor.md). Forwards step(), and
+/// advance/output/time/set_time where the stepper has them, so that integrate() takes the
+/// same path (deferred output or not) as with the stepper itself.
+template <class StepperT>
+struct Counted {
+  using Scalar = double;
+  const StepperT& stepper;
+  mutable long evaluations = 0, tangents = 0;
+  StepReport<double> count(const StepReport<double>& rep) const {
+    evaluations += rep.evaluations;
+    tangents += rep.tangents;
+    return rep;
+  }
+  template <class StateT>
+  StepReport<double> step(StateT& s, double h) const {
+    return count(stepper.step(s, h));
+  }
+  template <class StateT>
+    requires requires(const StepperT& st, StateT& x) { st.advance(x, 0.0); }
+  StepReport<double> advance(StateT& s, double h) const {
+    return count(stepper.advance(s, h));
+  }
+  template <class StateT>
+    requires requires(const StepperT& st, StateT& x) { st.output(x); }
+  StepReport<double> output(StateT& s) const {
+    return count(stepper.output(s));
+  }
+  template <class StateT>
+    requires requires(const StepperT& st, StateT& x) { st.time(x); }
+  double time(const StateT& s) const {
+    return stepper.time(s);
+  }
+  template <class StateT>
+    requires requires(const StepperT& st, StateT& x) { st.set_time(x, 0.0); }
+  void set_time(StateT& s, double t) const {
+    stepper.set_time(s, t);
+  }
+};
+
 template <class StepperT, class SceneT>
 void step_loop(benchmark::State& st, const StepperT& stepper, const Problem<SceneT>& p) {
   const double h = p.h_step;
-  auto s = start_of(stepper, p.c.initial);
-  constexpr bool deferred = defers_output_v<StepperT, decltype(s)>;
-  long newton = 0, evaluations = 0, tangents = 0;
-  for (auto _ : st) {
-    StepReport<double> rep;
-    if constexpr (deferred) rep = stepper.advance(s, h);
-    else rep = stepper.step(s, h);
-    newton += rep.iterations;
-    evaluations += rep.evaluations;
-    tangents += rep.tangents;
+  const long n = std::max(1L, std::lround((p.c.t_end - p.c.initial.time) / h));
+  const double t_end = p.c.initial.time + double(n) * h;
+  const Counted<StepperT> counted{stepper};
+  long newton = 0;
+  while (st.KeepRunningBatch(n)) {
+    auto s = start_of(stepper, p.c.initial);
+    const IntegrationSummary<double> sum = integrate(counted, s, t_end, h, NoObserver{}, no_recovery);
+    newton += sum.iterations;
     benchmark::DoNotOptimize(s);
-    double t = s.time;
-    if constexpr (deferred) t = stepper.time(s);
-    if (t > p.c.t_end) s = start_of(stepper, p.c.initial);  // stay on the case's trajectory
   }
   st.counters["newton"] = benchmark::Counter(double(newton), benchmark::Counter::kAvgIterations);
-  st.counters["evals"] = benchmark::Counter(double(evaluations), benchmark::Counter::kAvgIterations);
-  st.counters["tangents"] = benchmark::Counter(double(tangents), benchmark::Counter::kAvgIterations);
+  st.counters["evals"] = benchmark::Counter(double(counted.evaluations), benchmark::Counter::kAvgIterations);
+  st.counters["tangents"] = benchmark::Counter(double(counted.tangents), benchmark::Counter::kAvgIterations);
   st.counters["h"] = h;
 }
 

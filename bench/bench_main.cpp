@@ -19,7 +19,7 @@
 //                                A configuration whose step fails is reported as an error.
 //
 // Every benchmark's label is "key=value;…" (case, method, scheme, order, h, tol, stages)
-// for scripts/report.py. Methods: simo-alpha (½), simo-collocation, simo-kappa,
+// for scripts/report/ (python3 -m report). Methods: simo-alpha (½), simo-collocation, simo-kappa,
 // geradin-bauchau, geradin-bauchau-paper, each at order 2; the three energy-exact ones
 // composed (ComposedStepper) to order 4 by the triple jump (-o4) and by Suzuki's five
 // steps (-o4s), and to order 6 by Kahan–Li (-o6); our RK4; and, when Boost is found,

@@ -4,12 +4,13 @@
 #   2. build trompo-bench in Release (build/report)
 #   3. run it: per-step costs and the Δt sweep (JSON), then the long-run energy series (CSV);
 #      one progress line per finished benchmark (count of total, elapsed time, case and method)
-#   4. /usr/bin/python3 scripts/report.py: report/report.md, *.csv, *.png
+#   4. /usr/bin/python3 -m report (the package scripts/report/): report/report.md, *.csv, *.png
+#      and report/accuracy.md, the docs page generated whole from this run
 # About 12 minutes on 2 cores after the build (2,248 benchmarks: 746 s measured). Run it on a quiet machine: the timings are CPU times of a
 # single thread, but a busy machine still inflates them (caches, frequency).
 # Usage: scripts/report.sh [extra trompo-bench flags, e.g. --benchmark_filter=ht1]
 #        TROMPO_UPDATE_DOCS=1 scripts/report.sh   also copies the plots to docs/img/ and
-#        rewrites the generated tables at the end of docs/accuracy.md
+#        report/accuracy.md over docs/accuracy.md
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=report
@@ -56,11 +57,11 @@ echo "== trompo-bench: long-run energy series -> $out/energy_series.csv"
 "$build/bench/trompo-bench" --trompo_energy_series="$out/energy_series.csv"
 
 echo "== report"
-/usr/bin/python3 scripts/report.py "$out"
+PYTHONPATH=scripts /usr/bin/python3 -m report "$out"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
   cp "$out"/{work_precision,work_precision_core,frontier,energy_vs_h,energy_over_time,newton_vs_h}.png docs/img/
-  mkdir -p docs/img/families  # the families (docs/families.md, scripts/report_families.py)
+  mkdir -p docs/img/families  # the families (docs/families.md, scripts/report/families.py)
   cp "$out"/{work_precision,work_precision_gen-alpha,work_precision_constrained,work_precision_energy-decaying,invariants_families,large_step_ht0}.png docs/img/families/
-  echo "   plots copied to docs/img/; tables written into docs/accuracy.md (check the figures quoted in its prose)"
+  echo "   plots copied to docs/img/; docs/accuracy.md written whole from this run"
 fi
 echo "== done in $(($(date +%s) - start)) s (after the build): $out/report.md"

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "support/same_bits.hpp"
+#include "support/show.hpp"
 #include "support/trompo_test.hpp"
 #include "trompo/trompo.hpp"
 
@@ -128,7 +129,7 @@ std::vector<double> orders(const Scheme& scheme, const Case& c, const Reference&
     pL.push_back(trompo_test::observed_order(eL[k], eL[k + 1]));
     pW.push_back(trompo_test::observed_order(eW[k], eW[k + 1]));
   }
-  WARN(Scheme::name << " on " << c.name << ", h = " << h0 << "/2^k: |dLambda|_F " << list(eL) << "; orders Lambda "
+  SHOW(Scheme::name << " on " << c.name << ", h = " << h0 << "/2^k: |dLambda|_F " << list(eL) << "; orders Lambda "
                     << list(pL) << "; Omega " << list(pW));
   return {pL[levels - 3], pL[levels - 2], pW[levels - 3], pW[levels - 2]};
 }
@@ -180,7 +181,7 @@ TEST_CASE("Constrained trapezoid and energy-momentum (chi = 0) keep H to 1e-12 o
   const FamilyRun c2 = run_family(ConstrainedTrapezoid{}, ht2.scene, ht2.initial, 0.0002, 10000);
   const FamilyRun e0 = run_family(EnergyDecaying(0.0), ht0.scene, ht0.initial, 0.001, 10000);
   const FamilyRun e2 = run_family(EnergyDecaying(0.0), ht2.scene, ht2.initial, 0.0002, 10000);
-  WARN("1e4 steps, max |dH/H|: constrained trapezoid HT0 " << c0.max_dH << ", HT2 " << c2.max_dH << "; chi = 0 HT0 "
+  SHOW("1e4 steps, max |dH/H|: constrained trapezoid HT0 " << c0.max_dH << ", HT2 " << c2.max_dH << "; chi = 0 HT0 "
                                                               << e0.max_dH << ", HT2 " << e2.max_dH
                                                               << "; chi = 0 max |dmu|/|pi|: " << e0.max_dmu << ", "
                                                               << e2.max_dmu);
@@ -199,7 +200,7 @@ TEST_CASE("Constrained trapezoid: mu drifts as the plain trapezoid's (gen-alpha 
   const auto c = cases::ht0<double>();
   const FamilyRun ct = run_family(ConstrainedTrapezoid{}, c.scene, c.initial, 0.01, 1000);
   const FamilyRun tr = run_family(LieGenAlpha(1.0), c.scene, c.initial, 0.01, 1000);
-  WARN("HT0 h = 0.01, 10 s: constrained trapezoid dH " << ct.max_dH << ", dmu " << ct.max_dmu << ", dOmega3 "
+  SHOW("HT0 h = 0.01, 10 s: constrained trapezoid dH " << ct.max_dH << ", dmu " << ct.max_dmu << ", dOmega3 "
                                                        << ct.max_dOmega3 << " | trapezoid dH " << tr.max_dH << ", dmu "
                                                        << tr.max_dmu << ", dOmega3 " << tr.max_dOmega3);
   REQUIRE(ct.failures == 0);
@@ -219,7 +220,7 @@ TEST_CASE("Gen-alpha: H not monotone, H and mu drift as measured in the theory, 
   const auto c = cases::ht1<double>();
   const FamilyRun a8 = run_family(LieGenAlpha(0.8), c.scene, c.initial, 0.01, 1000);
   const FamilyRun a0 = run_family(LieGenAlpha(0.0), c.scene, c.initial, 0.01, 1000);
-  WARN("gen-alpha HT1 h = 0.01, 10 s: rho 0.8 dH " << a8.max_dH << ", dmu " << a8.max_dmu << ", max rise " << a8.max_rise
+  SHOW("gen-alpha HT1 h = 0.01, 10 s: rho 0.8 dH " << a8.max_dH << ", dmu " << a8.max_dmu << ", max rise " << a8.max_rise
                                                    << " | rho 0 dH " << a0.max_dH << ", dmu " << a0.max_dmu
                                                    << ", max rise " << a0.max_rise);
   REQUIRE(a8.failures == 0);
@@ -251,7 +252,7 @@ TEST_CASE("Energy-decaying chi > 0: H non-increasing at every step over 1e5 step
     const bool sensor = s.schedule == ChiSchedule::sensor;
     const FamilyRun r0 = run_family(s, ht0.scene, ht0.initial, 0.001, long_run);
     const FamilyRun r2 = run_family(s, ht2.scene, ht2.initial, 0.0002, long_run);
-    WARN("chi = 1/9 " << (sensor ? "sensor" : "constant") << ", " << long_run << " steps: HT0 H_end/H0 " << r0.H_end
+    SHOW("chi = 1/9 " << (sensor ? "sensor" : "constant") << ", " << long_run << " steps: HT0 H_end/H0 " << r0.H_end
                       << ", max rise " << r0.max_rise << ", dmu " << r0.max_dmu << ", its/step "
                       << r0.mean_iterations() << " | HT2 H_end/H0 " << r2.H_end << ", max rise " << r2.max_rise
                       << ", dmu " << r2.max_dmu);
@@ -562,7 +563,7 @@ void other_scalar() {
   const auto em = drift(EnergyDecaying(0.0));
   const auto ed = drift(EnergyDecaying(1.0 / 9, ChiSchedule::sensor));
   const auto ga = drift(LieGenAlpha(0.8));
-  WARN("200 steps of HT1 in units of eps: constrained trapezoid dH " << ct.first << " | chi 0 dH " << em.first << ", dmu "
+  SHOW("200 steps of HT1 in units of eps: constrained trapezoid dH " << ct.first << " | chi 0 dH " << em.first << ", dmu "
                                                                      << em.second << " | sensor dmu " << ed.second
                                                                      << " | gen-alpha dH " << ga.first);
   CHECK(ct.first <= 1000);
@@ -591,7 +592,7 @@ TEST_CASE("Families at large steps: HT0 at h = 0.05 for 10 s and HT2 at h = 0.01
   const FamilyRun es = run_family(EnergyDecaying(1.0 / 9, ChiSchedule::sensor), ht0.scene, ht0.initial, 0.05, 200);
   const FamilyRun g1 = run_family(LieGenAlpha(1.0), ht0.scene, ht0.initial, 0.05, 200);
   const FamilyRun g0 = run_family(LieGenAlpha(0.0), ht0.scene, ht0.initial, 0.05, 200);
-  WARN("HT0 h = 0.05, H(10)/H0: constrained " << ct.H_end << ", chi 0 " << em.H_end << ", chi 1/9 " << ed.H_end
+  SHOW("HT0 h = 0.05, H(10)/H0: constrained " << ct.H_end << ", chi 0 " << em.H_end << ", chi 1/9 " << ed.H_end
                                               << ", sensor " << es.H_end << ", rho 1 " << g1.H_end << ", rho 0 "
                                               << g0.H_end << "; its/step " << ct.mean_iterations() << ", "
                                               << em.mean_iterations() << ", " << ed.mean_iterations() << ", "
@@ -754,7 +755,7 @@ TEST_CASE("Families at the largest steps: HT0 at h = 0.1, HT2 at h = 0.02 succee
     CHECK(dmu <= 1e-12);
     dH = dmu = 0;
     const int f_ga = step_or_recover(LieGenAlpha(0.8), c->scene, c->initial, h, 50, dH, dmu);
-    WARN(c->name << " h = " << h << ", failed single steps of 50 (recovered by sub-steps): constrained " << f_ct
+    SHOW(c->name << " h = " << h << ", failed single steps of 50 (recovered by sub-steps): constrained " << f_ct
                  << ", chi 0 " << f_em << ", sensor " << f_ed << ", gen-alpha " << f_ga);
   }
 }

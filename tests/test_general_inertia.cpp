@@ -10,6 +10,7 @@
 #include <cmath>
 #include <string>
 
+#include "support/show.hpp"
 #include "support/trompo_test.hpp"
 
 using namespace trompo;
@@ -110,7 +111,7 @@ TEST_CASE("Body relabelling: J' = PJP^T, E' = PE maps the trajectory onto Lambda
       const Mapping m = compare(c.scene, c.initial, b, rotate_body(c.initial), h, n, mapL, mapW, scheme);
       INFO(scheme_name << " on rotated " << name << " (h = " << h << ", " << n << " steps): max|Lambda' - Lambda P^T| = " << m.lambda
                        << ", max|Omega' - P Omega|/|Omega| = " << m.omega);
-      WARN(scheme_name << " rotated " << name << ": dLambda " << m.lambda << ", dOmega " << m.omega);
+      SHOW(scheme_name << " rotated " << name << ": dLambda " << m.lambda << ", dOmega " << m.omega);
       REQUIRE(m.failures == 0);
       CHECK(m.lambda <= 1e-10);
       CHECK(m.omega <= 1e-10);
@@ -153,7 +154,7 @@ TEST_CASE("General inertia, HT1: exact schemes keep |dH/H|, |dmu/mu| <= 1e-12 ov
     const bool exact_H = stepper.keeps().energy, exact_mu = stepper.keeps().momentum_map;
     const RunStats<double> st = trompo_test::run(stepper, s0, 1e-3, 10000);
     INFO(name << ": max|dH/H| = " << st.max_dH << ", max|dmu/mu| = " << st.max_dmu << ", Newton its/step " << st.mean_iterations());
-    WARN(name << " general HT1: dH " << st.max_dH << ", dmu " << st.max_dmu << ", its/step " << st.mean_iterations());
+    SHOW(name << " general HT1: dH " << st.max_dH << ", dmu " << st.max_dmu << ", its/step " << st.mean_iterations());
     REQUIRE(st.failures == 0);
     if (exact_H) CHECK(st.max_dH <= 1e-12);
     if (exact_mu) CHECK(st.max_dmu <= 1e-12);
@@ -179,7 +180,7 @@ TEST_CASE("General inertia, FB1: every scheme keeps H (and all but [T5] the whol
     REQUIRE(stepper.keeps().energy);
     const RunStats<double> st = trompo_test::run(stepper, s0, 1e-2, 5000);
     INFO(name << ": max|dH/H| = " << st.max_dH << ", max|dpi|/|pi| = " << st.max_dpi);
-    WARN(name << " general FB1: dH " << st.max_dH << ", dpi " << st.max_dpi);
+    SHOW(name << " general FB1: dH " << st.max_dH << ", dpi " << st.max_dpi);
     REQUIRE(st.failures == 0);
     CHECK(st.max_dH <= 1e-12);
     if (exact_pi) CHECK(st.max_dpi <= 1e-12);

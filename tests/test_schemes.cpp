@@ -12,6 +12,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "support/show.hpp"
 #include "support/trompo_test.hpp"
 
 using namespace trompo;
@@ -98,7 +99,7 @@ TEMPLATE_TEST_CASE("Exact schemes, 1e4 steps: max |dH/H| and |dmu/mu| (FB1 |d pi
     INFO(TestType::name << " on " << r.name << ", h = " << r.h << ", " << st.steps << " steps: max|dH/H| = " << st.max_dH
                         << ", max|dmu/mu| = " << st.max_dmu << ", max|dpi|/|pi| = " << st.max_dpi << ", orthonormality "
                         << st.max_orth << ", Newton its/step " << st.mean_iterations());
-    WARN(TestType::name << " " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi
+    SHOW(TestType::name << " " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi
                         << ", its/step " << st.mean_iterations() << " (max " << st.max_iterations << ")");
     REQUIRE(st.failures == 0);
     CHECK(st.steps == r.steps);
@@ -129,7 +130,7 @@ TEST_CASE("Simo-alpha 1/2 over 1e4 steps: mu exact (<= 1e-12) on HT0-HT2, H and 
     const bool free = std::string(r.name) == "FB1";
     INFO("simo-alpha 1/2 on " << r.name << ", h = " << r.h << ": max|dH/H| = " << st.max_dH << ", max|dmu/mu| = " << st.max_dmu
                               << ", max|dpi|/|pi| = " << st.max_dpi << ", Newton its/step " << st.mean_iterations());
-    WARN("simo-alpha " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi << ", its/step "
+    SHOW("simo-alpha " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi << ", its/step "
                        << st.mean_iterations() << " (max " << st.max_iterations << ")");
     REQUIRE(st.failures == 0);
     CHECK(st.mean_iterations() <= 3.0);
@@ -169,7 +170,7 @@ TEST_CASE("Simo-alpha 1/2: max|dH/H| over t in [0,1] shrinks 4x (ratio in [3.6, 
       CHECK(ratio >= 3.6);
       CHECK(ratio <= 4.4);
     }
-    WARN("simo-alpha " << name << " max|dH/H| by halving h from " << h0 << ": " << dH[0] << ", " << dH[1] << ", " << dH[2] << ", "
+    SHOW("simo-alpha " << name << " max|dH/H| by halving h from " << h0 << ": " << dH[0] << ", " << dH[1] << ", " << dH[2] << ", "
                        << dH[3]);
   };
   check(cases::ht0<double>(), "HT0", 0.01, 1.0);
@@ -183,7 +184,7 @@ TEST_CASE("Geradin-Bauchau paper form [T5]: H exact (<= 1e-12) over 1e4 steps on
     const RunStats<double> st = run_case<GeradinBauchauPaper>(c, r.h, r.steps);
     INFO("gb-paper on " << r.name << ", h = " << r.h << ": max|dH/H| = " << st.max_dH << ", max|dmu/mu| = " << st.max_dmu
                         << ", max|dpi|/|pi| = " << st.max_dpi << ", Newton its/step " << st.mean_iterations());
-    WARN("gb-paper " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi << ", its/step "
+    SHOW("gb-paper " << r.name << ": dH " << st.max_dH << ", dmu " << st.max_dmu << ", dpi " << st.max_dpi << ", its/step "
                      << st.mean_iterations() << " (max " << st.max_iterations << ")");
     REQUIRE(st.failures == 0);
     CHECK(st.mean_iterations() <= 3.0);
@@ -204,7 +205,7 @@ TEST_CASE("Geradin-Bauchau paper form [T5]: max|dmu/mu| to t = 1 within 30% of t
   for (int k = 0; k < 4; ++k) {
     const RunStats<double> st = run_case<GeradinBauchauPaper>(c, hs[k], std::lround(1.0 / hs[k]));
     INFO("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " (reference " << expected[k] << "), max|dH/H| = " << st.max_dH);
-    WARN("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " vs reference " << expected[k]);
+    SHOW("gb-paper HT0 h = " << hs[k] << ": max|dmu/mu| = " << st.max_dmu << " vs reference " << expected[k]);
     REQUIRE(st.failures == 0);
     CHECK(st.max_dmu >= 0.7 * expected[k]);
     CHECK(st.max_dmu <= 1.3 * expected[k]);
@@ -224,7 +225,7 @@ TEST_CASE("GB paper [T5], HT1: to t = 1 mu drifts (> 1e-7 at every h) as O(h^2) 
     CHECK(st.max_dmu > 1e-7);  // 10⁸ × round-off: really not conserved
     dmu.push_back(st.max_dmu);
   }
-  WARN("gb-paper HT1 to t = 1: max|dmu/mu| = " << dmu[0] << ", " << dmu[1] << ", " << dmu[2] << ", " << dmu[3]
+  SHOW("gb-paper HT1 to t = 1: max|dmu/mu| = " << dmu[0] << ", " << dmu[1] << ", " << dmu[2] << ", " << dmu[3]
                                                 << " at h = 0.01, 0.005, 0.0025, 0.00125");
   for (int k = 1; k < 3; ++k) {
     INFO("ratio " << dmu[k] / dmu[k + 1]);
@@ -248,7 +249,7 @@ TEST_CASE("GB paper [T5], free body FB1: H exact, but pi drifts O(h^2) (ratio in
     CHECK(st.max_dH <= 1e-12);
     dpi.push_back(st.max_dpi);
   }
-  WARN("gb-paper FB1 to t = 10: max|dpi|/|pi| = " << dpi[0] << ", " << dpi[1] << ", " << dpi[2] << " at h = 0.04, 0.02, 0.01");
+  SHOW("gb-paper FB1 to t = 10: max|dpi|/|pi| = " << dpi[0] << ", " << dpi[1] << ", " << dpi[2] << " at h = 0.04, 0.02, 0.01");
   for (int k = 0; k < 2; ++k) {
     INFO("ratio " << dpi[k] / dpi[k + 1]);
     CHECK(dpi[k] > 1e-8);
@@ -293,7 +294,7 @@ void check_order(const Case& c, const char* name, const Reference& ref, double h
   const double pW2 = trompo_test::observed_order(eW[levels - 2], eW[levels - 1]);
   INFO(Scheme::name << " on " << name << " to t = " << ref.t << ", h = " << h0 << "/2^k: |Lambda - ref|_F = " << errors(eL)
                     << "; |Omega - ref|/|ref| = " << errors(eW) << "; orders Lambda " << orders(eL) << "; Omega " << orders(eW));
-  WARN(Scheme::name << " " << name << ": order Lambda " << orders(eL) << " | Omega " << orders(eW) << "; finest |dLambda|_F "
+  SHOW(Scheme::name << " " << name << ": order Lambda " << orders(eL) << " | Omega " << orders(eW) << "; finest |dLambda|_F "
                     << eL[levels - 1] << ", its/step " << its);
   // The order asserted is the scheme's trait (scheme.hpp), ± 0.1.
   constexpr double p_expected = Scheme::traits.order;
@@ -335,7 +336,7 @@ TEMPLATE_TEST_CASE("Symmetry: a step of h then -h returns to the start, |dLambda
       s = trompo_test::advance(stepper, s, r.h, 20);
     }
     INFO(TestType::name << " on " << r.name << ": worst |Lambda back - Lambda|_max = " << worst_L << ", |Omega back - Omega|/|Omega| = " << worst_W);
-    WARN(TestType::name << " " << r.name << " h,-h: dLambda " << worst_L << ", dOmega " << worst_W);
+    SHOW(TestType::name << " " << r.name << " h,-h: dLambda " << worst_L << ", dOmega " << worst_W);
     CHECK(worst_L <= 1e-14);
     CHECK(worst_W <= 1e-13);
   });
@@ -395,7 +396,7 @@ TEST_CASE("Reference table of theory section 7, HT0: max dH/H of Simo-alpha and 
       INFO(row.name << ", h = " << h << ": |Lambda - ref| Frobenius " << fro << ", spectral " << spec << ", max-abs " << mx
                     << " (reference " << row.lambda[k] << "); max dH/H " << st.max_dH << ", max dmu/mu " << st.max_dmu
                     << ", Newton its/step " << st.mean_iterations());
-      WARN("table " << row.name << " h = " << h << ": |dLambda|_F " << fro << " (reference " << row.lambda[k] << "), spectral "
+      SHOW("table " << row.name << " h = " << h << ": |dLambda|_F " << fro << " (reference " << row.lambda[k] << "), spectral "
                     << spec << ", dH " << st.max_dH << ", dmu " << st.max_dmu << ", its " << st.mean_iterations());
       CHECK(std::abs(fro - row.lambda[k]) <= 0.1 * row.lambda[k]);
       CHECK(st.max_dmu <= 1e-13);
@@ -459,7 +460,7 @@ TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gam
   INFO(TestType::name << ": " << failed_tops << " of 50 random tops had a failed step (first: " << first << "); Newton its/step "
                       << double(iterations) / double(steps) << "; intervals recovered by sub-steps " << recovered
                       << "; max |dH|/max(|H0|,1) " << max_dH);
-  WARN(TestType::name << " random tops h = 0.05: " << failed_tops << " of 50 failed; its/step " << double(iterations) / double(steps)
+  SHOW(TestType::name << " random tops h = 0.05: " << failed_tops << " of 50 failed; its/step " << double(iterations) / double(steps)
                       << "; recovered intervals " << recovered);
   CHECK(failed_tops == 0);
   CHECK(max_dH <= 1e-12);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "support/show.hpp"
 #include "support/trompo_test.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
@@ -190,7 +191,7 @@ void sweep(const char* label, std::uint64_t seed, int n, SizeOf&& size_of, doubl
       CHECK(ct.error <= tol);
       CHECK(cf.error <= tol);
     }
-    WARN(label << " " << name << ": worst relative tangent error with gravity " << worst_top.error << " at point "
+    SHOW(label << " " << name << ": worst relative tangent error with gravity " << worst_top.error << " at point "
                << worst_top.where << ", free " << worst_free.error << " at point " << worst_free.where << " ("
                << n - skipped << " of " << n << " points)");
     CHECK(skipped <= n / 4);  // the skip rule must leave most points tested
@@ -265,7 +266,7 @@ TEST_CASE("Half rotation F(e) of (40): F = exp(asin|e| e/|e|), F^2 = quaternion 
   detail::HalfRotation<double> hr;
   CHECK_FALSE(hr.set(Vec3(1.0, 0.0, 0.0)));
   CHECK_FALSE(hr.set(Vec3(0.8, 0.8, 0.0)));
-  WARN("half rotation: worst relative error of G " << worst);
+  SHOW("half rotation: worst relative error of G " << worst);
 }
 
 // =====================================================================================
@@ -334,7 +335,7 @@ TEST_CASE("Collocation alpha of [T2]: matches an independent high-precision root
       CHECK(std::abs(alpha - ref) <= tol);
     }
   }
-  WARN("collocation alpha: worst |alpha - reference| " << worst);
+  SHOW("collocation alpha: worst |alpha - reference| " << worst);
 }
 
 TEST_CASE("Collocation alpha of [T2]: degenerate limits (theta = 0, 1e-8 — sleeping top B = C = 0) give alpha -> 1/2 without 0/0",

@@ -3,9 +3,8 @@
 // and the per-step family of the energy-momentum schemes, on the same problems.
 //
 // These schemes carry memory between steps (gen-α's a_n, the last increment as predictor,
-// the sensor's history), while the bench's runs step a plain State. MemoryStepper owns
-// the trajectory's memory and forgets it when the state is back at the problem's start
-// time (every run and every restart of the per-step loop begins there).
+// the sensor's history): the bench's runs go through trompo::integrate(), which starts a
+// fresh trajectory for every run, and the per-step loop restarts one (bench_common.hpp).
 #include <string>
 
 #include "bench_common.hpp"
@@ -18,24 +17,6 @@ namespace {
 
 using namespace trompo;
 using namespace trompo_bench;
-
-/// A Stepper with the memory of one trajectory, for drivers that step a State.
-template <class Scheme, class SceneT>
-class MemoryStepper {
- public:
-  using Scalar = double;
-  MemoryStepper(Scheme scheme, const SceneT& scene, double t0) : stepper_(scheme, scene), t0_(t0) {}
-  StepReport<double> step(State<double>& s, double h) const {
-    if (s.time == t0_) memory_ = {};  // a new run: fresh memory
-    return stepper_.step(s, memory_, h);  // state and memory committed on success only
-  }
-  int order() const { return stepper_.order(); }
-
- private:
-  Stepper<Scheme, SceneT> stepper_;
-  double t0_;
-  mutable scheme_memory_t<Scheme, SceneT> memory_{};
-};
 
 /// The configurations measured: method name (as in the report), scheme, parameters.
 template <class SceneT, class F>
@@ -53,9 +34,8 @@ template <class SceneT>
 void sweeps_of(const Problem<SceneT>& p) {
   for_each_configuration<SceneT>([&p](const char* method, auto scheme) {
     using S = decltype(scheme);
-    register_sweep_with(p, method, S::name, p.o2, [scheme, t0 = p.c.initial.time](const SceneT& scene) {
-      return MemoryStepper<S, SceneT>(scheme, scene, t0);
-    });
+    register_sweep_with(p, method, S::name, p.o2,
+                        [scheme](const SceneT& scene) { return Stepper<S, SceneT>(scheme, scene); });
   });
 }
 
@@ -63,9 +43,7 @@ template <class SceneT>
 void steps_of(const Problem<SceneT>& p) {
   for_each_configuration<SceneT>([&p](const char* method, auto scheme) {
     using S = decltype(scheme);
-    register_step_with(p, method, S::name, [scheme, t0 = p.c.initial.time](const SceneT& scene) {
-      return MemoryStepper<S, SceneT>(scheme, scene, t0);
-    });
+    register_step_with(p, method, S::name, [scheme](const SceneT& scene) { return Stepper<S, SceneT>(scheme, scene); });
   });
 }
 

@@ -3,7 +3,7 @@
 //
 // The explicit baselines of these cases (odeint's dopri5 and RK4) are registered by the
 // splitting family (bench/methods/splitting.cpp) on problems with the same names, end time
-// and reference, so that both families' rows meet in scripts/report_implicit.py. Building
+// and reference, so that both families' rows meet in scripts/report/implicit.py. Building
 // with -DTROMPO_IMPLICIT_LONG_EXPLICIT=1 registers them here too (for a measurement without
 // the splitting family; off in the repository, so that they do not run twice).
 //

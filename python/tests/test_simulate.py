@@ -55,6 +55,9 @@ CASES = [
       "--rotation", "0.3,-0.2,0.5", "--omega", "0.05,0.07,0.04", "--dt", "2", "--t-end", "400", "--scheme", "rk4"],
      dict(inertia=[100, 120, 80], gravity_gradient=0.0011, orbit_normal=[0, 0, 1], radial=np.array([1, 0, 0]),
           rotation=[0.3, -0.2, 0.5], omega=[0.05, 0.07, 0.04], dt=2, t_end=400, scheme="rk4")),
+    # the other switch: a negative damping asked for by name
+    (["--case", "ht1", "--damping", "-0.5", "--allow-negative-damping", "--t-end", "1", "--every", "20"],
+     dict(case="ht1", damping=-0.5, allow_negative_damping=True, t_end=1, every=20)),
 ]
 
 
@@ -119,6 +122,10 @@ BAD = [
     (["--case", "sat1", "--radial", "1,0,1"], dict(case="sat1", radial=[1, 0, 1])),
     (["--case", "sat1", "--gravity-gradient", "-1"], dict(case="sat1", gravity_gradient=-1)),
     (["--case", "ht1", "--orbit-normal", "0,0,1"], dict(case="ht1", orbit_normal=[0, 0, 1])),
+    # issue 18: a negative damping unless asked for by name; an initial state that overflows
+    (["--case", "ht1", "--damping", "-1"], dict(case="ht1", damping=-1)),
+    (["--case", "ht1", "--omega", "1e200,0,0"], dict(case="ht1", omega=[1e200, 0, 0])),
+    (["--case", "ht1", "--rotation", "1e300,0,0"], dict(case="ht1", rotation=[1e300, 0, 0])),
 ]
 
 

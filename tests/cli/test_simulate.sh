@@ -127,6 +127,53 @@ check "lie-gen-alpha: runs, R00(1) near the closed form (0.96475)" '[ $rc -eq 0 
 "$sim" --case ht1 --scheme lie-gen-alpha --damping 1 --t-end 0.1 >"$tmp/gad.csv"; rc=$?
 check "lie-gen-alpha with effects" '[ $rc -eq 0 ]'
 
+# ---- bad input a new user tries (issue 18, item 7): exit 2 naming the field, no rows ----
+for bad in "--case ht1 --damping -1:--damping: negative coefficient -1" \
+           "--case ht1 --omega 1e200,0,0:--omega: the initial energy H is not finite" \
+           "--case fb1 --omega 0,1e200,0:--omega: the initial energy H is not finite" \
+           "--case ht1 --rotation 1e300,0,0:--rotation: the rotation vector's length overflows" \
+           "--case ht1 --damping 0.5 --allow-negative-damping 1:unexpected argument '1'"; do
+  flags=${bad%%:*}; want=${bad#*:}
+  "$sim" $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "exit 2, one line naming the field: $flags ($want)" \
+    '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ] && grep -qF -- "$want" "$tmp/bad.err"'
+done
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,1,2,3\n0,0,0,1e200,0,0\n' >"$tmp/huge.csv"
+"$sim" --case ht1 --ensemble "$tmp/huge.csv" >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+check "ensemble: a member whose energy overflows is exit 2, named by line" \
+  '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && grep -qF "huge.csv:3: omega1,2,3: the initial energy H is not finite" "$tmp/bad.err"'
+# Asked for by name, a negative damping runs and feeds energy in (H grows at every row).
+"$sim" --case ht1 --damping -1 --allow-negative-damping --t-end 1 --every 100 >"$tmp/pump.csv" 2>"$tmp/pump.err"; rc=$?
+check "--allow-negative-damping: runs, H increases monotonically" \
+  '[ $rc -eq 0 ] && [ ! -s "$tmp/pump.err" ] && awk -F, "NR>2 && \$14 <= prev {bad=1} NR>1{prev=\$14} END{exit bad}" "$tmp/pump.csv"'
+
+# A run of more than 1e8 steps (here 1e12) states its estimated time before it starts; with
+# stderr not a terminal nothing else is printed on it (no progress lines), and with stderr a
+# terminal (script(1) gives the run a pseudo-terminal) progress lines follow after 3 s. Both
+# runs are stopped by timeout after 5 s, side by side.
+long="--case fb1 --scheme rk4 --dt 1e-9 --t-end 1000"
+timeout 5 "$sim" $long >/dev/null 2>"$tmp/long.err" &
+pid_plain=$!
+have_script=0
+if command -v script >/dev/null 2>&1; then
+  have_script=1
+  script -qec "timeout 5 $sim $long 2>&1 >/dev/null" /dev/null >"$tmp/long_tty.txt" 2>&1 </dev/null &
+  pid_tty=$!
+fi
+wait $pid_plain; rc=$?
+check "long run: stopped by the timeout (exit 124), not refused" '[ $rc -eq 124 ]'
+check "long run: the estimate line first, naming steps, h and the timed probe" \
+  'head -1 "$tmp/long.err" | grep -qE "^trompo-simulate: 1e\+12 steps of h = 1.0000000000000001e-09: estimated [0-9.e+]+ (s|min|h|days|years) \([0-9.e+-]+ s a step, timed on a probe of [0-9]+ steps\)$"'
+check "long run, stderr not a terminal: nothing but the estimate (no progress lines)" \
+  '[ "$(wc -l <"$tmp/long.err")" -eq 1 ] && ! grep -q "elapsed" "$tmp/long.err"'
+if [ $have_script -eq 1 ]; then
+  wait $pid_tty
+  check "long run, stderr a terminal: the estimate, then progress lines (t, %, elapsed, left)" \
+    'grep -q "estimated" "$tmp/long_tty.txt" && grep -qE "t = [0-9.e+-]+ of 1000 \([0-9.]+%\), [0-9.]+ s elapsed, about .* left" "$tmp/long_tty.txt"'
+else
+  echo "skip long run with a terminal: script(1) (bsdutils) not found; only the non-terminal path tested"
+fi
+
 # Backward integration.
 "$sim" --case ht1 --dt -0.001 --t-end -0.01 >"$tmp/back.csv"; rc=$?
 check "negative dt integrates backward" '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/back.csv" | cut -d, -f1)" = "-0.01" ]'

@@ -12,6 +12,7 @@
 //
 // Not part of the library (include/trompo): an application of it.
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -27,6 +28,11 @@
 #include <iterator>
 #include <limits>
 #include <type_traits>
+#include <utility>
+#if __has_include(<unistd.h>)
+#include <unistd.h>
+#define TROMPO_SIMULATE_HAVE_ISATTY 1
+#endif
 
 #if TROMPO_HAVE_EXACT
 #include "trompo/exact/free_body.hpp"
@@ -73,7 +79,8 @@ constexpr const char* kUsage =
     "  --omega W1,W2,W3             initial body angular velocity\n"
     "  --dt H  --t-end T  [--every K]   write every K-th step (default 1); the last step is always written\n"
     "  --csv FILE                   default: standard output\n"
-    "  --damping C                  viscous damping torque -C*Omega\n"
+    "  --damping C                  viscous damping torque -C*Omega (C >= 0)\n"
+    "  --allow-negative-damping     accept C < 0 (the torque then feeds energy in; no value)\n"
     "  --torque T1,T2,T3            constant body-fixed torque\n"
     "  --space-torque S1,S2,S3      constant space-fixed torque\n"
     "  --rotor H1,H2,H3             internal rotor angular momentum (body axes)\n"
@@ -127,6 +134,7 @@ struct Config {
   std::optional<trompo::Composition> composition;  ///< --composition as given
   bool processed = false;  ///< --composition blanes-casas-murua-13 (ProcessedStepper)
   double damping = 0;
+  bool allow_negative_damping = false;  ///< --allow-negative-damping: a damping C < 0 on purpose
   V3 body_torque = V3::Zero();
   V3 space_torque = V3::Zero();
   V3 rotor = V3::Zero();
@@ -330,6 +338,9 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       if (!known)
         throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15, kahan-li-17 or blanes-casas-murua-13 (with --scheme splitting: strang, "
                             "chin-4a, chin-triple-jump, suzuki-5 or kahan-li-9), got " + value);
+    } else if (flag == "--allow-negative-damping") {
+      if (!value.empty()) throw invalid_input("--allow-negative-damping: a switch, it takes no value (got '" + value + "')");
+      c.allow_negative_damping = true;
     } else if (flag == "--damping") {
       c.damping = parse_number(flag, value);
       c.have_effects = true;
@@ -370,6 +381,11 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   if (*c.t_end != 0 && (*c.t_end > 0) != (*c.dt > 0))
     throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
                         std::to_string(*c.dt));
+  // A negative coefficient makes -C*Omega drive the spin: energy grows without bound. Run
+  // only when asked for by name (a sign typo otherwise passes as a plausible run).
+  if (c.damping < 0 && !c.allow_negative_damping)
+    throw invalid_input("--damping: negative coefficient " + flags.at("--damping") +
+                        " feeds energy in; give --allow-negative-damping to run it anyway");
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
   // ---- satellite: its own scene (gravity gradient only) ----
   if (!c.gravity_gradient && (flags.count("--orbit-normal") || flags.count("--radial")))
@@ -501,7 +517,7 @@ inline Config parse(int argc, char** argv) {
       std::exit(0);
     }
     if (a.rfind("--", 0) != 0) throw invalid_input("unexpected argument '" + a + "'");
-    if (a == "--energy-projection") {  // splitting: the one flag without a value
+    if (a == "--energy-projection" || a == "--allow-negative-damping") {  // the switches: no value
       if (flags.count(a)) throw invalid_input(a + ": given twice");
       flags[a] = "";
       continue;
@@ -554,6 +570,15 @@ class RowSink {
   virtual void flush() {}
   /// A line for the user (the CLI's stderr), without the program name and newline.
   virtual void message(const std::string& text) = 0;
+  /// Whether a long run states its estimated time first (notice): the CLI; not Python (the
+  /// caller chose the run, and the probe would cost it time).
+  virtual bool announces_long_runs() const { return false; }
+  /// A line before a long run starts (its estimated time): the CLI's stderr.
+  virtual void notice(const std::string&) {}
+  /// Whether progress lines are wanted during the run (the CLI: stderr is a terminal).
+  virtual bool shows_progress() const { return false; }
+  /// The progress line, rewritten in place; done: the run is over, end the line.
+  virtual void progress(const std::string&, bool /*done*/) {}
 };
 
 /// The CLI's sink: kHeader and `%.17g` rows to a FILE, messages to stderr.
@@ -570,6 +595,20 @@ class CsvSink final : public RowSink {
   }
   void flush() override { std::fflush(out_); }
   void message(const std::string& text) override { std::fprintf(stderr, "trompo-simulate: %s\n", text.c_str()); }
+  bool announces_long_runs() const override { return true; }
+  void notice(const std::string& text) override { message(text); }
+  bool shows_progress() const override {
+#ifdef TROMPO_SIMULATE_HAVE_ISATTY
+    return isatty(fileno(stderr)) != 0;
+#else
+    return false;
+#endif
+  }
+  void progress(const std::string& text, bool done) override {
+    // \r and erase-to-end-of-line: the line is rewritten in place on the terminal.
+    std::fprintf(stderr, "\rtrompo-simulate: %s\033[K%s", text.c_str(), done ? "\n" : "");
+    std::fflush(stderr);
+  }
 
  private:
   std::FILE* out_;
@@ -681,16 +720,81 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
 }
 // ---- end adaptive ----
 
+// ---- long runs: the estimate before, the progress during ----------------------------------
+
+/// A run of more steps than this states its estimated time before it starts.
+constexpr double kAnnounceSteps = 1e8;
+/// Progress lines (stderr a terminal only) begin after this many seconds, then once a second.
+constexpr double kProgressAfter = 3.0;
+
+/// A duration for a person: seconds up to two minutes, then minutes, hours, days, years.
+inline std::string duration_text(double seconds) {
+  if (!(seconds < 1e300)) return "forever";
+  if (seconds < 120) return format("%.3g s", seconds);
+  if (seconds < 2 * 3600) return format("%.3g min", seconds / 60);
+  if (seconds < 2 * 86400) return format("%.3g h", seconds / 3600);
+  if (seconds < 2 * 365.25 * 86400) return format("%.3g days", seconds / 86400);
+  return format("%.3g years", seconds / (365.25 * 86400));
+}
+
+/// Seconds per grid step of `stepper` from state s, timed on a short probe: the same
+/// integrate() with the same rows (every c.every-th step, formatted by a CsvSink into
+/// /dev/null, so that a run with --every 1 counts its output too) on a copy of s, 64, 256,
+/// … steps until one probe takes 50 ms or 4^10 steps. The run itself and its output are not
+/// touched. Returns {seconds per step, steps timed}; {NaN, m} when the probe failed a step.
+template <class StepperT>
+std::pair<double, long> time_per_step(const StepperT& stepper, const Config& c, const trompo::State<double>& s) {
+  using clock = std::chrono::steady_clock;
+  std::FILE* null = std::fopen("/dev/null", "w");  // no rows timed where there is none
+  CsvSink sink(null);
+  const V3 up = c.up.normalized();
+  const double h = *c.dt;
+  std::pair<double, long> result{std::numeric_limits<double>::quiet_NaN(), 0};
+  for (long m = 64;; m *= 4) {
+    trompo::State<double> probe = s;
+    long k = -1;
+    const auto start = clock::now();
+    const auto sum = trompo::integrate(stepper, probe, s.time + static_cast<double>(m) * h, h,
+                                       [&](const trompo::State<double>& st) {
+                                         if (null && ++k % c.every == 0) write_row(sink, stepper.scene(), up, st, 0);
+                                       });
+    const double elapsed = std::chrono::duration<double>(clock::now() - start).count();
+    result = {sum.ok() ? elapsed / static_cast<double>(m) : std::numeric_limits<double>::quiet_NaN(), m};
+    if (!sum.ok() || elapsed >= 0.05 || m >= (1L << 20)) break;
+  }
+  if (null) std::fclose(null);
+  return result;
+}
+
+/// The line a run of more than kAnnounceSteps steps prints before it starts.
+template <class StepperT>
+std::string estimate_text(const StepperT& stepper, const Config& c, const trompo::State<double>& s, double steps) {
+  const auto [per_step, timed] = time_per_step(stepper, c, s);
+  if (!(per_step >= 0))
+    return format("%.3g steps of h = %.17g: no time estimate (a step of the %ld-step probe failed)", steps, *c.dt,
+                  timed);
+  return format("%.3g steps of h = %.17g: estimated %s (%.3g s a step, timed on a probe of %ld steps)", steps, *c.dt,
+                duration_text(per_step * steps).c_str(), per_step, timed);
+}
+
 /// Runs `stepper` through trompo::integrate (failed steps are retried as sub-steps) and
-/// writes the CSV rows.
+/// writes the CSV rows. More than kAnnounceSteps steps: the estimated time on stderr first;
+/// stderr a terminal: a progress line once a second after the first kProgressAfter seconds.
 template <class StepperT>
 int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSink& out) {
   if (c.adaptive.on) return run_adaptive(stepper, c, s, out);  // adaptive steps (--rtol)
   const auto& scene = stepper.scene();
   const V3 up = c.up.normalized();  // μ = γ·π about the given up axis, with or without gravity
+  const double steps = std::abs((*c.t_end - s.time) / *c.dt);
+  if (steps > kAnnounceSteps && out.announces_long_runs()) out.notice(estimate_text(stepper, c, s, steps));
   out.header();
   const long n = step_count(c);
   const CountingStepper<StepperT> counting{stepper};
+  using clock = std::chrono::steady_clock;
+  const bool progress = out.shows_progress();
+  const auto start = clock::now();
+  double next_progress = kProgressAfter;
+  bool progress_shown = false;
   long k = -1;  // the observer's first call is at t0
   auto observer = [&](const trompo::State<double>& st) {
     ++k;
@@ -698,8 +802,23 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSi
       write_row(out, scene, up, st, counting.iterations);
       counting.iterations = 0;
     }
+    if (progress && (k & 0xFFF) == 0) {  // the clock every 4096 steps
+      const double elapsed = std::chrono::duration<double>(clock::now() - start).count();
+      if (elapsed >= next_progress) {
+        const double done = static_cast<double>(k) / static_cast<double>(n);
+        out.progress(format("t = %.6g of %.6g (%.1f%%), %s elapsed, about %s left", st.time, *c.t_end, 100 * done,
+                            duration_text(elapsed).c_str(), duration_text(elapsed * (1 - done) / done).c_str()),
+                     false);
+        progress_shown = true;
+        next_progress = elapsed + 1;
+      }
+    }
   };
   const auto sum = trompo::integrate(counting, s, *c.t_end, *c.dt, observer);
+  if (progress_shown)
+    out.progress(format("t = %.6g of %.6g, %s after %s", s.time, *c.t_end, sum.ok() ? "done" : "stopped",
+                        duration_text(std::chrono::duration<double>(clock::now() - start).count()).c_str()),
+                 true);
   if (sum.recovered > 0)
     out.message(format("%lld interval(s) recovered by sub-stepping (%lld failed attempts, %lld sub-steps, depth <= %d)",
                        static_cast<long long>(sum.recovered), static_cast<long long>(sum.failures),
@@ -847,6 +966,23 @@ decltype(auto) with_scene_of(const Config& c, const trompo::RigidBody<double>& b
   return f(HeavyTop<double>(body, gravity));
 }
 
+/// The initial state on its scene, before any row: a rotation vector whose length
+/// overflows has no attitude exp(R^) (its quaternion is NaN), and an Omega whose energy H or
+/// momentum pi overflows for this inertia has no first row; either would fail the first
+/// step as "non-finite". Both are bad input: throws invalid_input naming the field.
+template <class Scene>
+void check_initial_state(const Scene& scene, const trompo::State<double>& s, const std::string& rotation_field,
+                         const std::string& omega_field) {
+  if (!s.rotation.unit_quaternion().coeffs().allFinite())
+    throw invalid_input(rotation_field + ": the rotation vector's length overflows (no attitude exp(R^)); give it "
+                        "modulo 2*pi");
+  const double H = scene.energy(s);
+  const V3 pi = scene.spatial_momentum(s);
+  if (!std::isfinite(H) || !pi.allFinite())
+    throw invalid_input(omega_field + ": the initial " + (std::isfinite(H) ? "momentum pi" : "energy H") +
+                        " is not finite (overflows for this Omega and inertia)");
+}
+
 /// Everything trompo-simulate checks before it writes anything; throws invalid_input.
 inline void validate(const Config& c) {
   using namespace trompo;
@@ -866,6 +1002,7 @@ inline void validate(const Config& c) {
   const Rotor<double> rotor(c.rotor);
   (void)gravity, (void)damping, (void)body_torque, (void)space_torque, (void)rotor;
   if (c.gravity_gradient) (void)GravityGradient<double>(body, *c.gravity_gradient, c.orbit_normal, c.radial);
+  with_scene_of(c, body, c.mgl, false, [&](const auto& scene) { check_initial_state(scene, s0, "--rotation", "--omega"); });
   // ---- splitting: method and projection against the scene, before any output (an
   // ensemble's members are checked again on their own scenes: validate_member) ----
   if (c.scheme == "splitting")
@@ -977,6 +1114,8 @@ inline void validate_member(const Config& c, const EnsembleInput& in, std::size_
   const double mgl = in.mgl.empty() ? c.mgl : in.mgl[i];
   const UniformGravity<double> gravity(mgl, c.com, c.up);
   (void)gravity;
+  with_scene_of(c, body, mgl, !in.mgl.empty(),
+                [&](const auto& scene) { check_initial_state(scene, s, "rotation1,2,3", "omega1,2,3"); });
   if (c.scheme == "splitting")
     with_scene_of(c, body, mgl, !in.mgl.empty(), [&](const auto& scene) { check_splitting(c, scene); });
 }

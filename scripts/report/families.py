@@ -1,8 +1,7 @@
-#!/usr/bin/python3
 """The families of schemes in the accuracy-cost report (docs/families.md).
 
-Called by scripts/report.py with the parsed bench data; also runnable on its own:
-    /usr/bin/python3 scripts/report_families.py REPORT_DIR
+Called by __main__.py with the parsed bench data; also runnable on its own, from scripts/:
+    /usr/bin/python3 -m report.families REPORT_DIR
 Writes REPORT_DIR/work_precision.png        (main figure: each family's lower envelope)
        REPORT_DIR/work_precision_<family>.png (per new family: every method of it; the
                                               energy-momentum family and the baselines are in
@@ -11,6 +10,7 @@ Writes REPORT_DIR/work_precision.png        (main figure: each family's lower en
        REPORT_DIR/large_step_ht0.png         (HT0 at h = 0.05: H/H0 over 10 s)
        REPORT_DIR/families.md                (the family table and the large-step table)
 """
+import json
 import math
 import os
 import sys
@@ -19,6 +19,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+from .common import load  # noqa: E402
 
 CASES = ("ht0", "ht1", "ht2", "fb1")
 CASE_TITLES = {
@@ -221,7 +223,6 @@ def family_table(sweep, steps, cases=("ht1", "ht0", "ht2", "fb1"), h_of={"ht1": 
 
 
 def load_large(report_dir):
-    import json
     with open(os.path.join(report_dir, "bench.json")) as f:
         data = json.load(f)
     out = {}
@@ -293,10 +294,8 @@ def write(report_dir, sweep, steps):
 
 
 def main():
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    import report  # noqa: E402  (the parser of bench.json)
     report_dir = sys.argv[1] if len(sys.argv) > 1 else "report"
-    _, sweep, steps = report.load(report_dir)
+    _, sweep, steps = load(report_dir)
     print(write(report_dir, sweep, steps))
 
 

@@ -1,33 +1,22 @@
-#!/usr/bin/python3
-"""Turns trompo-bench's JSON (and the long-run energy series) into the accuracy-cost report.
+"""The core of the accuracy-cost report: the energy-momentum schemes and the baselines.
 
-Usage: /usr/bin/python3 scripts/report.py REPORT_DIR
-Reads  REPORT_DIR/bench.json            (trompo-bench --benchmark_out, both families)
-       REPORT_DIR/energy_series.csv     (trompo-bench --trompo_energy_series), optional
-       REPORT_DIR/machine.txt           (lscpu), optional
-Writes REPORT_DIR/report.md, sweep.csv, step.csv, frontier.csv, attitude_only.csv and
-       work_precision.png, frontier.png, energy_vs_h.png, newton_vs_h.png,
-       energy_over_time.png
-
-With TROMPO_UPDATE_DOCS=1 in the environment it also rewrites the generated block at the
-end of docs/accuracy.md (between the BEGIN/END report.py markers) with report.md's tables.
-
-Uses only the standard library, numpy and matplotlib (Debian's python3-matplotlib).
+write_csvs() and write_report() make REPORT_DIR/report.md, sweep.csv, step.csv,
+frontier.csv and attitude_only.csv; the plot_* functions work_precision_core.png,
+frontier.png, energy_vs_h.png, newton_vs_h.png and energy_over_time.png. The splitting,
+implicit-target and families sections come from the modules of the same names; the
+docs page from accuracy.py. Run as a whole by `python3 -m report` (__main__.py).
 """
 import csv
-import json
-import math
 import os
-import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import report_splitting  # noqa: E402  (the splitting family: its targets and plot styles)
-from report_common import crossing_cost  # noqa: E402  (shared with report_splitting)
+from . import common, implicit, splitting  # noqa: E402
+from .common import (CASES, EXACT_SCHEMES, cheapest, fmt, is_dopri, is_rk4, is_trompo_exact, ok_rows,  # noqa: E402
+                     split_method)
 
 # Targets of the issue (benchmarks, not tests).
 STEP_RATIO_TARGET = 2.0      # Simo-kappa step on HT1 at h = 1e-3 vs our RK4 step
@@ -35,8 +24,6 @@ NEWTON_TARGET = 3.0          # Newton iterations per step, on average
 FRONTIER_ROT = 1e-6          # ||Lambda - Lambda_exact|| at t = 10
 FRONTIER_DH = 1e-12          # max |dH/H| over the run
 ATTITUDE_LEVELS = (1e-8, 1e-10)
-EXACT_SCHEMES = ("simo-kappa", "simo-collocation", "geradin-bauchau")
-CASES = ("ht0", "ht1", "ht2", "fb1")
 CASE_TITLES = {
     "ht0": "HT0 (fast top, Mgl = 196.2), t = 10",
     "ht1": "HT1 (Simo-Wong top), t = 10",
@@ -59,86 +46,6 @@ VARIANT_TITLES = {"o4": " (order 4)", "o4s": " (order 4, Suzuki)", "o6": " (orde
                   "p6": " (order 6, processed)"}
 
 
-def split_method(m):
-    """'simo-kappa-o4s' -> ('simo-kappa', 'o4s'); variants: o4 (triple jump), o4s (Suzuki's
-    five steps), o6 (Kahan-Li), p6 (processed, Blanes-Casas-Murua); '' for the base scheme
-    and the baselines."""
-    for v in ("o4s", "o4", "o6", "p6"):
-        if m.endswith("-" + v):
-            return m[: -len(v) - 1], v
-    return m, ""
-
-
-def parse_label(label):
-    out = {}
-    for part in label.split(";"):
-        if "=" in part:
-            k, v = part.split("=", 1)
-            out[k] = v
-    return out
-
-
-def load(report_dir):
-    with open(os.path.join(report_dir, "bench.json")) as f:
-        data = json.load(f)
-    sweep, steps = [], {}
-    for b in data["benchmarks"]:
-        name = b["name"]
-        lab = parse_label(b.get("label", ""))
-        if name.startswith("sweep/"):
-            if b.get("run_type") == "aggregate":
-                continue
-            row = {
-                "case": lab.get("case", name.split("/")[1]),
-                "method": lab.get("method", name.split("/")[2]),
-                "scheme": lab.get("scheme", ""),
-                "order": int(lab.get("order", "0") or 0),
-                "stages": int(lab.get("stages", "1") or 1),
-                "h": float(lab.get("h", "nan")),
-                "tol": float(lab.get("tol", "0")),
-                "error": b.get("error_message", "") if b.get("error_occurred") else "",
-            }
-            if not row["error"]:
-                unit = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}[b.get("time_unit", "ms")]
-                row.update(
-                    cpu_ms=b["cpu_time"] * unit,
-                    steps=b["steps"],
-                    max_dH=b["max_dH"],
-                    max_dmu=b["max_dmu"],
-                    err_rot=b["err_rot"],
-                    err_omega=b["err_omega"],
-                    newton=b["newton"],
-                    rhs=b["rhs"],
-                )
-            sweep.append(row)
-        elif name.startswith("step/"):
-            # Repetitions: keep the individual runs, take the median ourselves.
-            if b.get("run_type") == "aggregate":
-                continue
-            unit = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}[b.get("time_unit", "ns")]
-            key = (lab.get("case"), lab.get("method"))
-            steps.setdefault(key, {"case": lab.get("case"), "method": lab.get("method"),
-                                   "scheme": lab.get("scheme"), "order": int(lab.get("order", "0")),
-                                   "h": float(lab.get("h", "nan")), "cpu": [], "newton": [],
-                                   "substeps": b.get("substeps", 1)})
-            steps[key]["cpu"].append(b["cpu_time"] * unit)
-            steps[key]["newton"].append(b.get("newton", 0.0))
-    for s in steps.values():
-        c = sorted(s["cpu"])
-        s["ns"] = c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
-        s["ns_min"], s["ns_max"] = c[0], c[-1]
-        s["newton_mean"] = sum(s["newton"]) / len(s["newton"])
-    return data.get("context", {}), sweep, steps
-
-
-def fmt(x, digits=2):
-    if x is None or (isinstance(x, float) and (math.isnan(x) or math.isinf(x))):
-        return "—"
-    if x == 0:
-        return "0"
-    return f"{x:.{digits}e}" if (abs(x) < 1e-2 or abs(x) >= 1e4) else f"{x:.{digits + 1}g}"
-
-
 def method_title(m):
     base, v = split_method(m)
     return base + VARIANT_TITLES.get(v, "")
@@ -148,27 +55,6 @@ def config_text(r):
     if r["method"] == "odeint-dopri5":
         return f"odeint dopri5, tol {r['tol']:.1e} ({int(r['steps'])} steps)"
     return f"{method_title(r['method'])}, h = {r['h']:.3g} ({int(r['steps'])} steps)"
-
-
-def ok_rows(sweep, case=None):
-    return [r for r in sweep if not r["error"] and (case is None or r["case"] == case)]
-
-
-def cheapest(rows, pred):
-    good = [r for r in rows if pred(r)]
-    return min(good, key=lambda r: r["cpu_ms"]) if good else None
-
-
-def is_trompo_exact(r):
-    return r["scheme"] in EXACT_SCHEMES
-
-
-def is_rk4(r):
-    return r["method"] in ("rk4", "odeint-rk4")
-
-
-def is_dopri(r):
-    return r["method"] == "odeint-dopri5"
 
 
 def joint(r):
@@ -210,16 +96,7 @@ def step_target(steps):
 
 
 def family_crossing(rows, pred):
-    by = {}
-    for r in rows:
-        if pred(r):
-            by.setdefault(r["method"], []).append(r)
-    best = None
-    for m, rs in by.items():
-        c = crossing_cost(rs, lambda r: max(r["err_rot"] / FRONTIER_ROT, r["max_dH"] / FRONTIER_DH))
-        if c is not None and (best is None or c < best[0]):
-            best = (c, m)
-    return best
+    return common.family_crossing(rows, pred, lambda r: max(r["err_rot"] / FRONTIER_ROT, r["max_dH"] / FRONTIER_DH))
 
 
 def frontier(sweep):
@@ -388,11 +265,8 @@ def write_report(report_dir, context, sweep, steps, machine):
                      f"{fmt(max(r['max_dmu'] for r in good))} | {bad} |")
     L.append("")
     L.append("Full data: `sweep.csv`, `step.csv`, `frontier.csv`, `attitude_only.csv`, `bench.json`.\n")
-    L += report_splitting.section(sweep, steps)  # splitting
-    # -- hook: the implicit schemes' targets and the t = 1000 frontiers (scripts/report_implicit.py)
-    import report_implicit  # noqa: E402  (next to this file)
-    L += report_implicit.section(sweep, steps)
-    # -- end hook
+    L += splitting.section(sweep, steps)  # splitting
+    L += implicit.section(sweep, steps)  # the implicit schemes' targets and the t = 1000 frontiers
     with open(os.path.join(report_dir, "report.md"), "w") as f:
         f.write("\n".join(L))
 
@@ -431,8 +305,8 @@ def series_by_method(rows):
 
 
 def style(method):
-    if report_splitting.is_splitting(method):  # splitting
-        return report_splitting.style(method)
+    if splitting.is_splitting(method):  # splitting
+        return splitting.style(method)
     scheme, variant = split_method(method)
     if scheme.startswith("odeint-dopri5"):
         scheme = "odeint-dopri5"
@@ -451,8 +325,8 @@ def style(method):
 def method_order(m):
     rank = {"simo-alpha": 0, "geradin-bauchau-paper": 1, "simo-kappa": 2, "simo-collocation": 3, "geradin-bauchau": 4,
             "rk4": 10, "odeint-rk4": 11, "odeint-dopri5": 12}
-    if report_splitting.is_splitting(m):  # splitting
-        return report_splitting.method_rank(m)
+    if splitting.is_splitting(m):  # splitting
+        return splitting.method_rank(m)
     base, variant = split_method(m)
     if base.startswith("odeint-dopri5"):
         base = "odeint-dopri5"
@@ -498,7 +372,7 @@ def plot_frontier(report_dir, sweep, fr):
         for m in sorted(by, key=method_order):
             base = split_method(m)[0]
             if (base not in EXACT_SCHEMES and base not in ("rk4", "odeint-rk4", "odeint-dopri5")
-                    and not report_splitting.is_splitting(m)):  # splitting
+                    and not splitting.is_splitting(m)):  # splitting
                 continue
             rows = by[m]
             xs = [r["cpu_ms"] for r in rows]
@@ -553,90 +427,3 @@ def plot_energy_series(report_dir):
     fig.savefig(os.path.join(report_dir, "energy_over_time.png"), dpi=110)
     plt.close(fig)
     return True
-
-
-def read_machine(report_dir):
-    out = {}
-    path = os.path.join(report_dir, "machine.txt")
-    if os.path.exists(path):
-        with open(path) as f:
-            for line in f:
-                if ":" in line:
-                    k, v = line.split(":", 1)
-                    out[k.strip()] = v.strip()
-    return out
-
-
-DOCS_ACCURACY = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "docs", "accuracy.md")
-DOCS_BEGIN = "<!-- BEGIN report.py tables"
-DOCS_END = "<!-- END report.py tables -->"
-
-
-def update_docs(report_dir, path=DOCS_ACCURACY):
-    """Replaces the generated block of docs/accuracy.md by report.md, headings one level down."""
-    with open(os.path.join(report_dir, "report.md")) as f:
-        lines = f.read().splitlines()
-    body = []
-    for line in lines[1:]:  # the report's own title is the section heading of the docs page
-        body.append("#" + line if line.startswith("#") else line)
-    with open(path) as f:
-        doc = f.read()
-    b = doc.index(DOCS_BEGIN)
-    b = doc.index("\n", b) + 1  # keep the BEGIN marker line
-    e = doc.index(DOCS_END, b)
-    doc = doc[:b] + "\n".join(body).strip("\n") + "\n" + doc[e:]
-    with open(path, "w") as f:
-        f.write(doc)
-    return os.path.normpath(path)
-
-
-def main():
-    report_dir = sys.argv[1] if len(sys.argv) > 1 else "report"
-    context, sweep, steps = load(report_dir)
-    machine = read_machine(report_dir)
-    write_csvs(report_dir, sweep, steps)
-    st, fr, att = write_report(report_dir, context, sweep, steps, machine)
-
-    # ---- families (scripts/report_families.py, docs/families.md) ----------------------------
-    # The core figures keep the energy-momentum schemes and the baselines; the other families
-    # get their own figures, and the main work-precision figure (work_precision.png) shows
-    # each family's lower envelope.
-    import report_families
-    core = lambda m: report_families.family_of(m) in ("energy-momentum", "explicit")  # noqa: E731
-    # The splittings in the core figure too: they are what the energy-momentum schemes compete with.
-    core_wp = lambda m: core(m) or (report_families.family_of(m) == "splitting" and report_splitting.in_work_precision(m))  # noqa: E731
-    plot_grid(report_dir, sweep, "work_precision_core.png", "cpu_ms", "err_rot", "CPU time per run [ms]",
-              "‖Λ − Λref‖ at the end", "Work–precision: end attitude error vs CPU time", yfloor=1e-16,
-              methods_filter=core_wp)
-    plot_grid(report_dir, sweep, "energy_vs_h.png", "h", "max_dH", "h (dopri5: mean step)", "max |ΔH/H| over the run",
-              "Energy error vs step size", yfloor=1e-17, methods_filter=core)
-    plot_grid(report_dir, sweep, "newton_vs_h.png", "h", "newton", "h", "Newton iterations per base step",
-              "Newton iterations vs step size",
-              methods_filter=lambda m: core(m) and m not in ("rk4", "odeint-rk4", "odeint-dopri5"),
-              transform=lambda r: r["newton"] / r["stages"], linear_y=True)
-    families_md = report_families.write(report_dir, sweep, steps)
-    with open(os.path.join(report_dir, "report.md"), "a") as f:
-        f.write("\n" + families_md)
-    # ---- end families ----------------------------------------------------------------------
-    plot_frontier(report_dir, sweep, fr)
-    plot_energy_series(report_dir)
-    report_splitting.write_csv(report_dir, sweep, steps)  # splitting
-
-    # A short summary on stdout.
-    if st:
-        print(f"step target: Simo-kappa {st['kappa_ns']:.0f} ns / RK4 {st['rk4_ns']:.0f} ns = {st['ratio']:.2f}x "
-              f"(target <= {STEP_RATIO_TARGET}), Newton {st['newton']:.2f}/step"
-              + (f", vs odeint rk4 {st['ratio_odeint']:.2f}x" if st["ratio_odeint"] else ""))
-    for case, f in fr.items():
-        parts = []
-        for key in ("trompo", "dopri5", "rk4"):
-            r = f[key]
-            parts.append(f"{key} {fmt(r['cpu_ms'], 3)} ms [{config_text(r)}]" if r else f"{key}: not reached")
-        print(f"frontier {case}: " + "; ".join(parts))
-    print(f"wrote {report_dir}/report.md and plots")
-    if os.environ.get("TROMPO_UPDATE_DOCS", "0") == "1":
-        print(f"updated the generated tables of {update_docs(report_dir)}")
-
-
-if __name__ == "__main__":
-    main()

@@ -1,4 +1,4 @@
-"""The implicit energy-momentum schemes' targets (docs/predictor.md) for scripts/report.py.
+"""The implicit energy-momentum schemes' targets (docs/predictor.md) in the report.
 
 section(sweep, steps) returns the report's markdown lines:
   - the target table: the Simo-kappa step vs odeint's runge_kutta4 step (HT1, h = 1e-3), a
@@ -7,10 +7,10 @@ section(sweep, steps) returns the report's markdown lines:
   - the joint and attitude-only frontiers at t = 1000 (cases "ht0-t1000", "ht1-t1000": the
     implicit rows from bench/methods/implicit_long.cpp, the explicit ones from the
     splitting family's bench/methods/splitting.cpp).
-It reads the rows report.py's load() makes and changes nothing else.
+It reads the rows common.load() makes and changes nothing else.
 """
+from .common import cheapest, fmt, is_dopri, is_rk4, is_trompo_exact, ok_rows
 
-EXACT_SCHEMES = ("simo-kappa", "simo-collocation", "geradin-bauchau")
 STEP_VS_ODEINT = 1.3      # Simo-kappa step / odeint rk4 step, HT1, h = 1e-3
 SUBSTEP_VS_BASE = 1.05    # composed sub-step / base step
 ATTITUDE = 1e-10          # ||dLambda|| at t = 10
@@ -21,35 +21,6 @@ LONG_CASES = ("ht0-t1000", "ht1-t1000")
 LONG_ATTITUDE = (1e-4, 1e-6, 1e-8)
 
 
-def _fmt(x, digits=3):
-    if x is None:
-        return "—"
-    if x == 0:
-        return "0"
-    return f"{x:.{digits - 1}e}" if (abs(x) < 1e-2 or abs(x) >= 1e4) else f"{x:.{digits}g}"
-
-
-def _ok(sweep, case):
-    return [r for r in sweep if r["case"] == case and not r["error"]]
-
-
-def _cheapest(rows, pred):
-    good = [r for r in rows if pred(r)]
-    return min(good, key=lambda r: r["cpu_ms"]) if good else None
-
-
-def _exact(r):
-    return r["scheme"] in EXACT_SCHEMES
-
-
-def _dopri(r):
-    return r["method"] == "odeint-dopri5"
-
-
-def _rk4(r):
-    return r["method"] in ("rk4", "odeint-rk4")
-
-
 def _joint(r):
     return r["err_rot"] <= JOINT_ROT and r["max_dH"] <= JOINT_DH
 
@@ -58,8 +29,8 @@ def _config(r):
     if r is None:
         return "not reached"
     if r["method"] == "odeint-dopri5":
-        return f"odeint dopri5, tol {r['tol']:.1e}: {_fmt(r['cpu_ms'])} ms"
-    return f"{r['method']}, h = {r['h']:.3g}: {_fmt(r['cpu_ms'])} ms"
+        return f"odeint dopri5, tol {r['tol']:.1e}: {fmt(r['cpu_ms'])} ms"
+    return f"{r['method']}, h = {r['h']:.3g}: {fmt(r['cpu_ms'])} ms"
 
 
 def _status(ok):
@@ -87,9 +58,9 @@ def _targets(sweep, steps):
                 L.append(f"| composed sub-step ≤ {SUBSTEP_VS_BASE:g}× base step ({scheme}-{v}, HT1, h = 1e-3) | "
                          f"{per:.0f} ns vs {base['ns']:.0f} ns: **{ratio:.2f}×** | {_status(ratio <= SUBSTEP_VS_BASE)} |")
     for case in ("ht0", "ht1", "ht2"):
-        rows = _ok(sweep, case)
-        imp = _cheapest(rows, lambda r: _exact(r) and r["err_rot"] <= ATTITUDE)
-        dop = _cheapest(rows, lambda r: _dopri(r) and r["err_rot"] <= ATTITUDE)
+        rows = ok_rows(sweep, case)
+        imp = cheapest(rows, lambda r: is_trompo_exact(r) and r["err_rot"] <= ATTITUDE)
+        dop = cheapest(rows, lambda r: is_dopri(r) and r["err_rot"] <= ATTITUDE)
         target = ATTITUDE_TARGET[case]
         if imp and dop:
             ratio = imp["cpu_ms"] / dop["cpu_ms"]
@@ -99,14 +70,14 @@ def _targets(sweep, steps):
             L.append(f"| attitude ‖ΔΛ‖ ≤ {ATTITUDE:g}, {case.upper()}, t = 10 | implicit: {_config(imp)}; "
                      f"dopri5: {_config(dop)} | — |")
     for case in LONG_CASES:
-        rows = _ok(sweep, case)
+        rows = ok_rows(sweep, case)
         if not rows:
             L.append(f"| joint bound, {case.upper()} | not in this run | — |")
             continue
-        imp = _cheapest(rows, lambda r: _exact(r) and _joint(r))
-        dop = _cheapest(rows, lambda r: _dopri(r) and _joint(r))
-        rk = _cheapest(rows, lambda r: _rk4(r) and _joint(r))
-        have_explicit = any(_dopri(r) or _rk4(r) for r in rows)
+        imp = cheapest(rows, lambda r: is_trompo_exact(r) and _joint(r))
+        dop = cheapest(rows, lambda r: is_dopri(r) and _joint(r))
+        rk = cheapest(rows, lambda r: is_rk4(r) and _joint(r))
+        have_explicit = any(is_dopri(r) or is_rk4(r) for r in rows)
         explicit = [r for r in (dop, rk) if r]
         if imp and explicit:
             best = min(explicit, key=lambda r: r["cpu_ms"])
@@ -125,27 +96,27 @@ def _targets(sweep, steps):
 def _long_frontiers(sweep):
     L = []
     for case in LONG_CASES:
-        rows = _ok(sweep, case)
+        rows = ok_rows(sweep, case)
         if not rows:
             continue
         L.append(f"### {case.upper()} (t = 1000)\n")
         L.append("| bound | implicit energy-momentum | dopri5 | RK4 |")
         L.append("|---|---|---|---|")
-        fams = ((_exact, "implicit"), (_dopri, "dopri5"), (_rk4, "rk4"))
-        cells = [_config(_cheapest(rows, lambda r, p=p: p(r) and _joint(r))) for p, _ in fams]
+        fams = ((is_trompo_exact, "implicit"), (is_dopri, "dopri5"), (is_rk4, "rk4"))
+        cells = [_config(cheapest(rows, lambda r, p=p: p(r) and _joint(r))) for p, _ in fams]
         L.append(f"| joint: ‖ΔΛ‖ ≤ {JOINT_ROT:g} and max ΔH/H ≤ {JOINT_DH:g} | " + " | ".join(cells) + " |")
         for level in LONG_ATTITUDE:
-            cells = [_config(_cheapest(rows, lambda r, p=p: p(r) and r["err_rot"] <= level)) for p, _ in fams]
+            cells = [_config(cheapest(rows, lambda r, p=p: p(r) and r["err_rot"] <= level)) for p, _ in fams]
             L.append(f"| attitude only: ‖ΔΛ‖ ≤ {level:g} | " + " | ".join(cells) + " |")
         L.append("")
         L.append("| method | h range | CPU ms | ‖ΔΛ‖ at t = 1000 | max ΔH/H | max Δμ/μ |")
         L.append("|---|---|---|---|---|---|")
-        for m in sorted({r["method"] for r in rows if _exact(r)}):
+        for m in sorted({r["method"] for r in rows if is_trompo_exact(r)}):
             good = [r for r in rows if r["method"] == m]
-            L.append(f"| {m} | {_fmt(min(r['h'] for r in good))} – {_fmt(max(r['h'] for r in good))} | "
-                     f"{_fmt(min(r['cpu_ms'] for r in good))} – {_fmt(max(r['cpu_ms'] for r in good))} | "
-                     f"{_fmt(min(r['err_rot'] for r in good))} – {_fmt(max(r['err_rot'] for r in good))} | "
-                     f"{_fmt(max(r['max_dH'] for r in good))} | {_fmt(max(r['max_dmu'] for r in good))} |")
+            L.append(f"| {m} | {fmt(min(r['h'] for r in good))} – {fmt(max(r['h'] for r in good))} | "
+                     f"{fmt(min(r['cpu_ms'] for r in good))} – {fmt(max(r['cpu_ms'] for r in good))} | "
+                     f"{fmt(min(r['err_rot'] for r in good))} – {fmt(max(r['err_rot'] for r in good))} | "
+                     f"{fmt(max(r['max_dH'] for r in good))} | {fmt(max(r['max_dmu'] for r in good))} |")
         L.append("")
     if not L:
         L.append("No t = 1000 rows in this run (bench/methods/implicit_long.cpp not built, or filtered out).\n")

@@ -1,6 +1,6 @@
 """The spin-exact splitting's part of the report (bench/methods/splitting.cpp, docs/splitting.md).
 
-Called from report.py: section() gives the target table of the splitting issue as Markdown
+Called from core.py: section() gives the target table of the splitting issue as Markdown
 lines (every target row, the configuration behind it, the measured dopri5/splitting CPU-time
 ratio and whether it is met), style() and method_rank() place the splitting series in the
 plots. All ratios come from one trompo-bench run (dopri5 and the splitting timed together).
@@ -13,7 +13,7 @@ tolerance).
 """
 import os
 
-from report_common import crossing_cost
+from .common import cheapest, family_crossing, is_dopri, ok_rows
 
 SCHEMES = ("splitting", "splitting-projected")
 METHOD_COLORS = {
@@ -56,34 +56,8 @@ def in_work_precision(method):
     return p is None or p[0] == "splitting"
 
 
-def _ok(sweep, case):
-    return [r for r in sweep if not r["error"] and r["case"] == case]
-
-
-def _cheapest(rows, pred):
-    good = [r for r in rows if pred(r)]
-    return min(good, key=lambda r: r["cpu_ms"]) if good else None
-
-
-def _family_crossing(rows, pred, ratio):
-    by = {}
-    for r in rows:
-        if pred(r):
-            by.setdefault(r["method"], []).append(r)
-    best = None
-    for m, rs in by.items():
-        c = crossing_cost(rs, ratio)
-        if c is not None and (best is None or c < best[0]):
-            best = (c, m)
-    return best
-
-
 def _is_split(r):
     return r["scheme"] in SCHEMES
-
-
-def _is_dopri(r):
-    return r["method"] == "odeint-dopri5"
 
 
 def _is_rk4(r):
@@ -93,14 +67,14 @@ def _is_rk4(r):
 def _config(r):
     if r is None:
         return "not reached"
-    if _is_dopri(r):
+    if is_dopri(r):
         return f"dopri5 tol {r['tol']:.1e}: {r['cpu_ms']:.3g} ms"
     return f"{r['method']} h = {r['h']:.3g}: {r['cpu_ms']:.3g} ms"
 
 
-def measure(sweep, case, bound_rot, bound_dH=None, baseline=_is_dopri):
+def measure(sweep, case, bound_rot, bound_dH=None, baseline=is_dopri):
     """(splitting row, baseline row, grid ratio, interpolated ratio) at a bound."""
-    rows = _ok(sweep, case)
+    rows = ok_rows(sweep, case)
 
     def reach(r):
         return r["err_rot"] <= bound_rot and (bound_dH is None or r["max_dH"] <= bound_dH)
@@ -109,11 +83,11 @@ def measure(sweep, case, bound_rot, bound_dH=None, baseline=_is_dopri):
         x = r["err_rot"] / bound_rot
         return max(x, r["max_dH"] / bound_dH) if bound_dH else x
 
-    s = _cheapest(rows, lambda r: _is_split(r) and reach(r))
-    b = _cheapest(rows, lambda r: baseline(r) and reach(r))
+    s = cheapest(rows, lambda r: _is_split(r) and reach(r))
+    b = cheapest(rows, lambda r: baseline(r) and reach(r))
     grid = b["cpu_ms"] / s["cpu_ms"] if s and b else None
-    si = _family_crossing(rows, _is_split, ratio)
-    bi = _family_crossing(rows, baseline, ratio)
+    si = family_crossing(rows, _is_split, ratio)
+    bi = family_crossing(rows, baseline, ratio)
     interp = bi[0] / si[0] if si and bi else None
     return s, b, grid, interp
 

@@ -1,4 +1,4 @@
-// The exact free rotation of any rigid body (trompo::EulerPoinsot, docs/theory.md §13
+// The exact free rotation of any rigid body (trompo::EulerPoinsot, docs/theory.md §14
 // [F1]–[F7]) and its Jacobi functions (trompo/lie/jacobi.hpp):
 //   1. sn, cn, dn and the complements 1 − cn, 1 − dn against Boost.Math in long double, and
 //      their identities in float, double and long double;

@@ -1,5 +1,5 @@
 #pragma once
-// The exact torque-free rotation of any rigid body (Euler–Poinsot), docs/theory.md §13
+// The exact torque-free rotation of any rigid body (Euler–Poinsot), docs/theory.md §14
 // [F1]–[F7]: the free sub-flow of the splittings on asymmetric bodies, and a step of its own.
 //
 //   EulerPoinsot<double> flow(Eigen::Vector3d(1, 2, 3));   // principal moments, any order

@@ -31,6 +31,7 @@
 #include "trompo/model/effects/viscous_damping.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/lie/so3.hpp"
+#include "trompo/schemes/free_flow/euler_poinsot.hpp"
 
 namespace trompo {
 
@@ -85,6 +86,7 @@ struct SplittingMemory {
   Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
   Scalar energy = Scalar(0);              ///< H of the trajectory's first state (projection [S12])
+  EulerPoinsot<Scalar> free;              ///< the exact free flow of an asymmetric body [F1]–[F7]
 };
 
 /// The working frame of [S1]/[S8] and the constants of the sub-flows, computed once per
@@ -109,6 +111,9 @@ struct SplittingFrame {
   Vector3 rotor_axis = Vector3::UnitZ();  ///< unit axis of w = −J⁻¹h_r   [S13]
   Scalar rotor_rate = Scalar(0);          ///< |w|; 0: no rotor flow
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
+  /// The exact free flow of an asymmetric body without rotor ([F1]–[F7], in the memory);
+  /// null for a symmetric body (S is exact) or with a rotor (no exact free flow).
+  const EulerPoinsot<Scalar>* exact_free = nullptr;
 
   /// The free symmetric flow [S2] alone is the exact free flow (Chin's T): symmetric body
   /// and no rotor term.
@@ -196,6 +201,7 @@ struct SplittingFrame {
     m.J_inv = J_inv;
     m.h_r = h_r;
     m.damping = damping;
+    if (k_b != Scalar(0) && rotor_rate == Scalar(0)) m.free = EulerPoinsot<Scalar>(J);
     return m;
   }
 
@@ -221,6 +227,7 @@ struct SplittingFrame {
       if (f.rotor_rate > Scalar(0)) f.rotor_axis = w / f.rotor_rate;
     }
     f.damping = m.damping;
+    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0)) f.exact_free = &m.free;  // lives in the memory
     return f;
   }
 
@@ -295,6 +302,14 @@ inline void flow_asymmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>&
   const Scalar sp = sin(phi_half), cp = cos(phi_half);
   multiply_axis<0>(x.q, cp, sp);
   rotate_back_axis<0>(x.P, cp, sp);
+}
+
+/// [F1]–[F7] the exact free flow of an asymmetric body (no rotor) for a time t; the split
+/// clock advances here, as in S.
+template <class Scalar>
+inline void flow_exact_free(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
+  f.exact_free->advance(x.q, x.P, t);
+  x.t += t;
 }
 
 /// [S13] the exact flow of the rotor's linear term −h_r·J⁻¹Π = w·Π: a rotation about the
@@ -415,9 +430,12 @@ inline void flow_kick(const Scene& scene, const SplittingFrame<Scalar>& f, Split
 /// W = τ·J⁻¹τ:  τ̃ = τ + (h²/24) Kᵀ J⁻¹ τ, K = ∂τ/∂w the body-frame torque Jacobian for
 /// Λ_w exp(ŵ). From the scene's frame-n Jacobian K_n (w.r.t. the user-frame perturbation
 /// w_u = Q w): K = K_n Q + τ̂. Only potentials enter (Chin is offered on such scenes only).
+/// flow_gradient_kick is the same kick with a general weight: Π ← Π + t(τ + w KᵀJ⁻¹τ), or
+/// with with_tau = false the force gradient alone, Π ← Π + w KᵀJ⁻¹τ (the correctors of the
+/// near-integrable compositions [F8]; both depend on Λ only, so they are exact flows).
 template <class Scene, class Scalar = typename Scene::Scalar>
-inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t,
-                           Scalar h) {
+inline void flow_gradient_kick(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t,
+                               Scalar w_grad, bool with_tau) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   if constexpr (gravity_only_v<Scene>) {
@@ -429,7 +447,9 @@ inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, 
             const Vector3 E = f.identity ? grav.com_direction() : Vector3(f.Qt * grav.com_direction());
             const Vector3 tau = (-grav.Mgl()) * E.cross(b);
             const Vector3 u = f.J_inv.cwiseProduct(tau);
-            x.P += t * (tau + (h * h / Scalar(24)) * (grav.Mgl() * b.cross(u.cross(E))));
+            const Vector3 grad = grav.Mgl() * b.cross(u.cross(E));
+            if (with_tau) x.P += t * (tau + w_grad * grad);
+            else x.P += w_grad * grad;
           };
           (one(g), ...);
         },
@@ -453,7 +473,16 @@ inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, 
       },
       scene.effects());
   const Matrix3 K = (f.identity ? Kn : Matrix3(Kn * f.Qm)) + SO3<Scalar>::hat(tau);
-  x.P += t * (tau + (h * h / Scalar(24)) * (K.transpose() * f.J_inv.cwiseProduct(tau)));
+  const Vector3 grad = K.transpose() * f.J_inv.cwiseProduct(tau);
+  if (with_tau) x.P += t * (tau + w_grad * grad);
+  else x.P += w_grad * grad;
+}
+
+/// Chin's middle kick [S7] (see above): t(τ + (h²/24) KᵀJ⁻¹τ).
+template <class Scene, class Scalar = typename Scene::Scalar>
+inline void flow_chin_kick(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t,
+                           Scalar h) {
+  flow_gradient_kick(scene, f, x, t, h * h / Scalar(24), true);
 }
 
 /// H in the working frame: ½(Π − h_r)·J⁻¹(Π − h_r) + V.

@@ -20,7 +20,7 @@
 
 #include "trompo/errors.hpp"
 #include "trompo/lie/jacobi.hpp"
-#include "trompo/schemes/free_flow/euler_poinsot.hpp"
+#include "trompo/lie/euler_poinsot.hpp"
 
 #ifdef TROMPO_HAVE_BOOST
 #include <boost/math/special_functions/jacobi_elliptic.hpp>

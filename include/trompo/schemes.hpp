@@ -5,7 +5,6 @@
 #include "trompo/schemes/families/constrained_trapezoid.hpp"
 #include "trompo/schemes/families/energy_decaying.hpp"
 #include "trompo/schemes/families/lie_gen_alpha.hpp"
-#include "trompo/schemes/free_flow/euler_poinsot.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
 #include "trompo/schemes/scheme.hpp"

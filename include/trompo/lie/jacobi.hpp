@@ -60,6 +60,13 @@ struct JacobiModulus {
     inv_scale = Scalar(1) / scale;
     m_bottom = mj;
   }
+
+  /// K(m), the quarter period: K = Π(1 + k_j)·K(m_L), K(m_L) = (π/2)(1 + m_L/4 + O(m_L²))
+  /// (the Landen ladder is the AGM); +∞ on the separatrix.
+  Scalar quarter_period() const {
+    if (separatrix) return std::numeric_limits<Scalar>::infinity();
+    return Scalar(1.57079632679489661923132169163975144L) / inv_scale * (Scalar(1) + m_bottom / Scalar(4));
+  }
 };
 
 /// sn, cn, dn at one argument, with 1 − cn and 1 − dn to relative accuracy.

@@ -22,6 +22,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
+#include <limits>
 #include <tuple>
 #include <type_traits>
 
@@ -31,7 +32,7 @@
 #include "trompo/model/effects/viscous_damping.hpp"
 #include "trompo/errors.hpp"
 #include "trompo/lie/so3.hpp"
-#include "trompo/schemes/free_flow/euler_poinsot.hpp"
+#include "trompo/lie/euler_poinsot.hpp"
 
 namespace trompo {
 
@@ -494,32 +495,44 @@ inline Scalar working_energy(const Scene& scene, const SplittingFrame<Scalar>& f
   return H;
 }
 
-/// [S12] energy projection that keeps π: one linearised update
+/// [S12] energy projection that keeps π: linearised updates
 ///   (Λ, Π) ← (Λ exp(λ n̂), exp(−λ n̂) Π),  n = Π̇/|Π̇|,  Π̇ = Π × Ω + τ(Λ),  λ = (H − H0)/|Π̇|,
 /// the time-λ flow of n·Π (n fixed in the body), so π = ΛΠ is untouched and dH/dλ = −|Π̇|.
-/// At a relative equilibrium (Π̇ = 0) there is nothing to correct.
+/// One update leaves a residual O(λ²) (1.5e-11 of H per step on a fast full-inertia top at
+/// h = 0.004), so the update is repeated, from the new state, until |H − H0| is at round-off
+/// (4ε(|T| + |V|)), at most 4 times. At a relative equilibrium (Π̇ = 0) there is nothing to
+/// correct.
 template <class Scene, class Scalar = typename Scene::Scalar>
 inline void project_energy(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar H0) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  using std::abs;
   using std::cos;
   using std::sin;
-  const Matrix3 L = x.q.toRotationMatrix();
-  const Vector3 omega = f.J_inv.cwiseProduct(x.P - f.h_r);
-  Scalar H = (x.P - f.h_r).dot(omega) / Scalar(2);
-  Vector3 Pdot = x.P.cross(omega);
-  if constexpr (Scene::has_potential) {
-    H += potential_at(scene, f, L);
-    Pdot += kick_torque(scene, f, L, x.t);
+  constexpr int max_updates = 4;
+  for (int k = 0;; ++k) {
+    const Matrix3 L = x.q.toRotationMatrix();
+    const Vector3 omega = f.J_inv.cwiseProduct(x.P - f.h_r);
+    const Scalar kinetic = (x.P - f.h_r).dot(omega) / Scalar(2);
+    Scalar H = kinetic, V = Scalar(0);
+    Vector3 Pdot = x.P.cross(omega);
+    if constexpr (Scene::has_potential) {
+      V = potential_at(scene, f, L);
+      H += V;
+      Pdot += kick_torque(scene, f, L, x.t);
+    }
+    if (k > 0 && !(abs(H - H0) > Scalar(4) * std::numeric_limits<Scalar>::epsilon() * (abs(kinetic) + abs(V))))
+      return;  // at round-off (or not finite: the step reports it)
+    if (k == max_updates) return;
+    const Scalar norm = Pdot.norm();
+    if (!(norm > Scalar(0))) return;
+    const Vector3 n = Pdot / norm;
+    const Scalar lambda = (H - H0) / norm;
+    const Scalar sl = sin(lambda / 2), cl = cos(lambda / 2);
+    x.q = x.q * Eigen::Quaternion<Scalar>(cl, sl * n.x(), sl * n.y(), sl * n.z());
+    const Vector3 nxP = n.cross(x.P);
+    x.P += (Scalar(-2) * sl * cl) * nxP + (Scalar(2) * sl * sl) * n.cross(nxP);
   }
-  const Scalar norm = Pdot.norm();
-  if (!(norm > Scalar(0))) return;
-  const Vector3 n = Pdot / norm;
-  const Scalar lambda = (H - H0) / norm;
-  const Scalar sl = sin(lambda / 2), cl = cos(lambda / 2);
-  x.q = x.q * Eigen::Quaternion<Scalar>(cl, sl * n.x(), sl * n.y(), sl * n.z());
-  const Vector3 nxP = n.cross(x.P);
-  x.P += (Scalar(-2) * sl * cl) * nxP + (Scalar(2) * sl * sl) * n.cross(nxP);
 }
 
 }  // namespace detail

@@ -1,6 +1,8 @@
 #pragma once
 // The exact torque-free rotation of any rigid body (Euler–Poinsot), docs/theory.md §14
-// [F1]–[F7]: the free sub-flow of the splittings on asymmetric bodies, and a step of its own.
+// [F1]–[F7]: the free sub-flow of the splittings on asymmetric bodies (schemes/splitting/),
+// a step of its own, and the machinery of exact::FreeBody. Pure rotation-group maths on
+// (q, Π), hence in lie/.
 //
 //   EulerPoinsot<double> flow(Eigen::Vector3d(1, 2, 3));   // principal moments, any order
 //   flow.advance(q, Pi, h);   // (Λ, Π) ← exact free flow over h, in the principal body frame
@@ -101,6 +103,18 @@ class EulerPoinsot {
     const Phase ph = phase(Pi);
     inv.m = ph.m, inv.mc = ph.mc, inv.lambda = ph.lambda, inv.circled_axis = slots_[ph.cfg].p[0];
     return inv;
+  }
+
+  /// The period of Π(t) from Π, 4K(k)/|λ| [F3]: after it Π returns and Λ has turned about
+  /// π by a fixed angle. +∞ where there is none to use: a symmetric body (its flow is a
+  /// closed form), Π = 0, the separatrix.
+  Scalar period(const Vector3& Pi) const {
+    using std::abs;
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    if (symmetric_) return inf;
+    const Phase ph = phase(Pi);
+    if (!(abs(ph.lambda) > Scalar(0))) return inf;
+    return Scalar(4) * JacobiModulus<Scalar>(ph.m, ph.mc).quarter_period() / abs(ph.lambda);
   }
 
   /// (q, Π) ← the exact free flow over h [F3]–[F6]; q (body → space, unit) and Π (body
@@ -271,12 +285,9 @@ class EulerPoinsot {
     // rotation of n onto e = σ e_{slot 1}; 1 + n·e ≥ 1 since σ = sgn Π₁. The norm of the
     // product a0* a1 (in [2, 4]) is removed by the final normalisation.
     const int ax = C.p[0];
-    auto n_cross_e = [&](const Vector3& n) {
-      Vector3 r = Vector3::Zero();
-      const int i1 = (ax + 1) % 3, i2 = (ax + 2) % 3;  // n × e_ax = (n_{i2}, −n_{i1}) at (i1, i2)
-      r(i1) = ph.sigma * n(i2);
-      r(i2) = -ph.sigma * n(i1);
-      return r;
+    auto n_cross_e = [&](const Vector3& n) {  // σ n × e_ax
+      const Vector3 r = ax == 0 ? Vector3(0, n.z(), -n.y()) : ax == 1 ? Vector3(-n.z(), 0, n.x()) : Vector3(n.y(), -n.x(), 0);
+      return Vector3(ph.sigma * r);
     };
     const Scalar w0 = Scalar(1) + ph.sigma * n0(ax), w1 = Scalar(1) + ph.sigma * n1(ax);
     const Vector3 v0 = n_cross_e(n0), v1 = n_cross_e(n1);
@@ -302,7 +313,7 @@ class EulerPoinsot {
     Vector3 axis_v = Vector3::Zero();
     axis_v(s_axis_) = sp;
     q = q * Quaternion(cp, axis_v.x(), axis_v.y(), axis_v.z());
-    const int i1 = (s_axis_ + 1) % 3, i2 = (s_axis_ + 2) % 3;
+    const int i1 = s_axis_ == 0 ? 1 : s_axis_ == 1 ? 2 : 0, i2 = s_axis_ == 0 ? 2 : s_axis_ == 1 ? 0 : 1;
     const Scalar cm1 = Scalar(-2) * sp * sp, s2 = Scalar(2) * sp * cp;
     const Scalar x = Pi(i1), y = Pi(i2);
     Pi(i1) = x + (cm1 * x + s2 * y);

@@ -290,7 +290,12 @@ TEST_CASE("splitting: the energy projection keeps H and pi", "[splitting]") {
     }
     const State<double> s = run(SplittingProjected(SplittingMethod::chin_4a), top.scene, top.initial, 10.0, 2500);
     const double mu0 = top.scene.momentum_map(top.initial);
-    CHECK(std::abs(top.scene.momentum_map(s) - mu0) / std::abs(mu0) < 1e-13);
+    const double pi0 = top.scene.spatial_momentum(top.initial).norm();
+    const double dmu = std::abs(top.scene.momentum_map(s) - mu0) / pi0;
+    const State<double> u = run(Splitting(SplittingMethod::chin_4a), top.scene, top.initial, 10.0, 2500);
+    const double dmu_plain = std::abs(top.scene.momentum_map(u) - mu0) / pi0;
+    std::printf("chin-4a on the full-inertia top, 2500 steps: |dmu|/|pi| projected %.2e, plain %.2e\n", dmu, dmu_plain);
+    CHECK(dmu < 1e-12);  // round-off of ~10 sub-flows a step over 2500 steps (|Omega| = 20)
   }
   SECTION("one projection moves pi by round-off only") {
     // The projection is the flow of n·Π: it rotates Λ and Π against each other.

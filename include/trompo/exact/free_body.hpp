@@ -53,6 +53,18 @@
 
 namespace trompo::exact {
 
+namespace detail {
+/// The input checks of both free-body solutions (the messages name "FreeBody").
+inline void check_free_body(const Eigen::Vector3d& J, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0) {
+    if (!J.allFinite() || !(J.minCoeff() > 0.0))
+      trompo::detail::fail("FreeBody: the moments of inertia J must be finite and > 0, got ",
+                           trompo::detail::to_text(J));
+    if (!trompo::detail::all_finite(Omega0))
+      trompo::detail::fail("FreeBody: Omega0 must be finite, got ", trompo::detail::to_text(Omega0));
+    detail::check_rotation(Lambda0, "FreeBody");
+}
+}  // namespace detail
+
 /// Torque-free rigid body with inertia diag(J1, J2, J3) (any order, equal moments allowed):
 /// the published closed form above (Landau & Lifshitz; Carlson R_J for the precession angle).
 /// Building it costs ~10 µs (complete integrals); FreeBody below evaluates the same solution
@@ -65,12 +77,7 @@ class FreeBodyClosedForm {
   /// non-finite input or a Lambda0 that is not a rotation.
   FreeBodyClosedForm(const Eigen::Vector3d& J, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0)
       : J_(J), L0_(Lambda0), W0_(Omega0) {
-    if (!J.allFinite() || !(J.minCoeff() > 0.0))
-      trompo::detail::fail("FreeBody: the moments of inertia J must be finite and > 0, got ",
-                           trompo::detail::to_text(J));
-    if (!trompo::detail::all_finite(Omega0))
-      trompo::detail::fail("FreeBody: Omega0 must be finite, got ", trompo::detail::to_text(Omega0));
-    detail::check_rotation(Lambda0, "FreeBody");
+    detail::check_free_body(J, Lambda0, Omega0);
 
     const Eigen::Vector3d Pi0 = J.cwiseProduct(Omega0);  // Π0 = J Ω0
     if (Pi0.cross(Omega0).isZero(0.0)) {                 // JΩ0 ∥ Ω0: steady rotation
@@ -264,12 +271,7 @@ class FreeBody {
  public:
   FreeBody(const Eigen::Vector3d& J, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0)
       : L0_(Lambda0), W0_(Omega0) {
-    if (!J.allFinite() || !(J.minCoeff() > 0.0))
-      trompo::detail::fail("FreeBody: the moments of inertia J must be finite and > 0, got ",
-                           trompo::detail::to_text(J));
-    if (!trompo::detail::all_finite(Omega0))
-      trompo::detail::fail("FreeBody: Omega0 must be finite, got ", trompo::detail::to_text(Omega0));
-    detail::check_rotation(Lambda0, "FreeBody");
+    detail::check_free_body(J, Lambda0, Omega0);
     flow_ = trompo::EulerPoinsot<double>(J);
     J_ = J;
     q0_ = Eigen::Quaterniond(Lambda0);

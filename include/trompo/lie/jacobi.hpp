@@ -79,6 +79,7 @@ struct JacobiValues {
 /// (sn, cn, dn)(u | m) by the ladder of m (see the file comment).
 template <class Scalar>
 JacobiValues<Scalar> jacobi_sncndn(const JacobiModulus<Scalar>& L, Scalar u) {
+  using std::abs;
   using std::cos;
   using std::cosh;
   using std::sin;
@@ -93,12 +94,27 @@ JacobiValues<Scalar> jacobi_sncndn(const JacobiModulus<Scalar>& L, Scalar u) {
     return r;
   }
   const Scalar v = u * L.inv_scale;
-  const Scalar sv = sin(v), cv = cos(v), sh = sin(v / Scalar(2));
+  // sin v and 1 − cos v: Taylor series for |v| ≤ ¼ (the flow's increments; terms to v¹⁷/v¹⁸,
+  // truncation < 1e-24), else the library's, with 1 − cos v = sin²v/(1 + cos v) for cos v > 0.
+  Scalar sv, cv, cb0;
+  if (abs(v) <= Scalar(0.25)) {
+    const Scalar w = v * v;
+    sv = v * (Scalar(1) + w * (Scalar(-1.0L / 6) + w * (Scalar(1.0L / 120) + w * (Scalar(-1.0L / 5040) +
+             w * (Scalar(1.0L / 362880) + w * (Scalar(-1.0L / 39916800) + w * (Scalar(1.0L / 6227020800.0L) +
+             w * (Scalar(-1.0L / 1307674368000.0L) + w * Scalar(1.0L / 355687428096000.0L)))))))));
+    cb0 = w * (Scalar(0.5L) + w * (Scalar(-1.0L / 24) + w * (Scalar(1.0L / 720) + w * (Scalar(-1.0L / 40320) +
+              w * (Scalar(1.0L / 3628800) + w * (Scalar(-1.0L / 479001600.0L) + w * (Scalar(1.0L / 87178291200.0L) +
+              w * (Scalar(-1.0L / 20922789888000.0L) + w * Scalar(1.0L / 6402373705728000.0L)))))))));
+    cv = Scalar(1) - cb0;
+  } else {
+    sv = sin(v), cv = cos(v);
+    cb0 = cv > Scalar(0) ? sv * sv / (Scalar(1) + cv) : Scalar(1) - cv;
+  }
   // bottom level, A&S 16.13: sn ≈ sin v − t cos v, cn ≈ cos v + t sin v, dn ≈ 1 − ½ m sin² v,
   // t = ¼ m (v − sin v cos v)
   const Scalar t = Scalar(0.25) * L.m_bottom * (v - sv * cv);
   Scalar s = sv - t * cv;
-  Scalar cb = Scalar(2) * sh * sh - t * sv;  // 1 − cos v = 2 sin²(v/2), then the O(m) term
+  Scalar cb = cb0 - t * sv;  // 1 − cos v, then the O(m) term
   Scalar db = Scalar(0.5) * L.m_bottom * sv * sv;
   int j = L.levels - 1;
   if (cb < Scalar(0.5)) {

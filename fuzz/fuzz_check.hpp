@@ -204,7 +204,8 @@ struct TrajectoryStepper : trompo::Stepper<Scheme, Scene> {
 template <class Scene>
 std::string with_splitting(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
   using namespace trompo;
-  const auto method = static_cast<SplittingMethod>(in.choose(5));
+  // every method, the near-integrable ones [F8] included
+  const auto method = all_splitting_methods[in.choose(static_cast<unsigned>(std::size(all_splitting_methods)))];
   if (in.byte() & 1) return exercise(TrajectoryStepper<Splitting, Scene>(Splitting(method), scene), s, in, wild);
   if constexpr (detail::splitting_effects_of<Scene>::conservative)
     return exercise(TrajectoryStepper<SplittingProjected, Scene>(SplittingProjected(method), scene), s, in, wild);

@@ -29,8 +29,8 @@ const char* short_name(SplittingMethod m) {
     case SplittingMethod::chin_triple_jump: return "chin-tj";
     case SplittingMethod::suzuki_5: return "suzuki-5";
     case SplittingMethod::kahan_li_9: return "kahan-li-9";
+    default: return to_string(m);  // saba2c … sbab3c
   }
-  return "?";
 }
 
 template <class Scheme>
@@ -92,35 +92,86 @@ std::deque<Problem<Top>> long_tops;
 /// HTA: a fast asymmetric heavy top with a full inertia tensor. HT1's top made asymmetric
 /// (principal moments 5, 5.5, 1) and turned in the body by R = exp((0.3, −0.2, 0.4)^):
 /// J = R diag(5, 5.5, 1) Rᵀ, E = R e3, Mgl = 20, Λ0 = exp(0.05 ê1), Ω0 = R (0, 0, 50),
-/// t ∈ [0, 10]. No closed form: the reference is a converged Kahan–Li splitting run.
-cases::Case<Top> hta() {
-  const M3 R = SO3<double>::exp(V3(0.3, -0.2, 0.4)).matrix();
-  State<double> s;
-  s.rotation = SO3<double>::exp(V3(0.05, 0, 0));
-  s.omega = R * V3(0, 0, 50);
-  return {"hta", Top(RigidBody<double>(M3(R * V3(5, 5.5, 1).asDiagonal() * R.transpose())),
-                     UniformGravity<double>(20, R * V3::UnitZ())),
-          s, 10.0};
+/// t ∈ [0, 10]. No closed form: the reference is a converged long-double splitting run.
+template <class S = double>
+cases::Case<cases::Top<S>> hta() {
+  using V = Eigen::Matrix<S, 3, 1>;
+  using M = Eigen::Matrix<S, 3, 3>;
+  const M R = SO3<S>::exp(V(S(0.3), S(-0.2), S(0.4))).matrix();
+  State<S> s;
+  s.rotation = SO3<S>::exp(V(S(0.05), 0, 0));
+  s.omega = R * V(0, 0, 50);
+  return {"hta", cases::Top<S>(RigidBody<S>(M(R * V(5, S(5.5), 1).asDiagonal() * R.transpose())),
+                               UniformGravity<S>(20, R * V::UnitZ())),
+          s, S(10)};
 }
 
 /// HT2A: HT2 made asymmetric (J3 = 15.6 instead of 15.234375: 2.4 %) and turned in the body by
 /// the same R: J = R diag(15.234375, 0.46875, 15.6) Rᵀ, E = R e2, Mgl = 15·9.81, Λ0 = I,
 /// Ω0 = R (0, 150, −4.61538), t ∈ [0, 2]: a fast asymmetric top (150 rad/s).
-cases::Case<Top> ht2a() {
-  const M3 R = SO3<double>::exp(V3(0.3, -0.2, 0.4)).matrix();
-  State<double> s;
-  s.omega = R * V3(0, 150, -4.61538);
-  return {"ht2a", Top(RigidBody<double>(M3(R * V3(15.234375, 0.46875, 15.6).asDiagonal() * R.transpose())),
-                      UniformGravity<double>(15 * 9.81, R * V3::UnitY())),
-          s, 2.0};
+template <class S = double>
+cases::Case<cases::Top<S>> ht2a() {
+  using V = Eigen::Matrix<S, 3, 1>;
+  using M = Eigen::Matrix<S, 3, 3>;
+  const M R = SO3<S>::exp(V(S(0.3), S(-0.2), S(0.4))).matrix();
+  State<S> s;
+  s.omega = R * V(0, 150, S(-4.61538));
+  return {"ht2a", cases::Top<S>(RigidBody<S>(M(R * V(S(15.234375), S(0.46875), S(15.6)).asDiagonal() * R.transpose())),
+                                UniformGravity<S>(S(15 * 9.81), R * V::UnitY())),
+          s, S(2)};
 }
 
-Reference splitting_reference(const cases::Case<Top>& c, long n) {
-  const Stepper<Splitting, Top> stepper(Splitting(SplittingMethod::kahan_li_9), c.scene);
-  const double h = c.t_end / double(n);
-  const RunResult r = run_trompo<false>(stepper, c, h, n);
-  if (!r.ok) throw std::runtime_error("trompo-bench: the HTA reference run failed");
-  return {r.end.rotation.matrix(), r.end.omega, "converged splitting run (kahan-li-9, h = " + num(h) + ")", ""};
+/// HTN (ours): a nearly symmetric fast top, J = R diag(5, 5.05, 1) Rᵀ (1 % asymmetry), E off
+/// the axis (R (0.1, 0, 1)/|·|), Mgl = 20, Λ0 = exp(0.1 ê1), Ω0 = R (1, 0.5, 40), t ∈ [0, 10].
+template <class S = double>
+cases::Case<cases::Top<S>> htn() {
+  using V = Eigen::Matrix<S, 3, 1>;
+  using M = Eigen::Matrix<S, 3, 3>;
+  const M R = SO3<S>::exp(V(S(-0.2), S(0.4), S(0.1))).matrix();
+  State<S> s;
+  s.rotation = SO3<S>::exp(V(S(0.1), 0, 0));
+  s.omega = R * V(1, S(0.5), 40);
+  return {"htn", cases::Top<S>(RigidBody<S>(M(R * V(5, S(5.05), 1).asDiagonal() * R.transpose())),
+                               UniformGravity<S>(20, R * V(S(0.1), 0, 1).normalized())),
+          s, S(10)};
+}
+
+/// HTF (ours): a strongly asymmetric fast top, J = R diag(2, 3, 4.5) Rᵀ, E = R (0.3, 0.2, 1)/|·|,
+/// Mgl = 10, Λ0 = exp((0.2, −0.1, 0)^), Ω0 = R (20, 3, 30) (tumbling near the max axis), t ∈ [0, 5].
+template <class S = double>
+cases::Case<cases::Top<S>> htf() {
+  using V = Eigen::Matrix<S, 3, 1>;
+  using M = Eigen::Matrix<S, 3, 3>;
+  const M R = SO3<S>::exp(V(S(0.1), S(0.3), S(-0.2))).matrix();
+  State<S> s;
+  s.rotation = SO3<S>::exp(V(S(0.2), S(-0.1), 0));
+  s.omega = R * V(20, 3, 30);
+  return {"htf", cases::Top<S>(RigidBody<S>(M(R * V(2, 3, S(4.5)).asDiagonal() * R.transpose())),
+                               UniformGravity<S>(10, R * V(S(0.3), S(0.2), 1).normalized())),
+          s, S(5)};
+}
+
+/// A converged long-double run: Chin's triple jump on the exact free flow (order 6) with n
+/// and n/2 steps; the reference is the finer one, its check the distance between the two.
+template <cases::Case<cases::Top<long double>> (*make)()>
+Reference long_double_reference(long n) {
+  using LD = long double;
+  const auto c = make();
+  auto run = [&](long steps) {
+    const Stepper<Splitting, cases::Top<LD>> st(Splitting(SplittingMethod::chin_triple_jump), c.scene);
+    auto traj = st.start(c.initial);
+    const LD h = c.t_end / LD(steps);
+    for (long i = 0; i < steps; ++i)
+      if (!st.step(traj, h).ok()) throw std::runtime_error("trompo-bench: a long-double reference run failed");
+    return traj.state();
+  };
+  const State<LD> fine = run(n), coarse = run(n / 2);
+  Reference r{fine.rotation.matrix().template cast<double>(), fine.omega.template cast<double>(),
+              "long-double chin-tj on the exact free flow, n = " + std::to_string(n), ""};
+  const double d = double((fine.rotation.matrix() - coarse.rotation.matrix()).norm() +
+                          (fine.omega - coarse.omega).norm() / fine.omega.norm());
+  r.check = "differs from n = " + std::to_string(n / 2) + " by " + num(d);
+  return r;
 }
 
 void register_splitting_steps() {
@@ -131,6 +182,8 @@ void register_splitting_steps() {
     step<SplittingProjected>(*p, SplittingMethod::strang);
     step<SplittingProjected>(*p, SplittingMethod::chin_4a);
   }
+  // On FB1 (asymmetric, torque-free) every method is the exact free flow [F1]–[F7]: these
+  // are its per-step cost, beside step/fb1/odeint-rk4.
   for (SplittingMethod m : {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9})
     step<Splitting>(frees[0], m);
 }
@@ -151,24 +204,22 @@ void register_splitting_sweeps() {
   ht1.t_end = 1000;
   long_tops.push_back({ht0, lagrange_reference(ht0, 5.0, 1.0), 1e-3, {}, {}, {}, {}, {}});
   long_tops.push_back({ht1, lagrange_reference(ht1, 5.0, 1.0), 1e-3, {}, {}, {}, {}, {}});
-  const auto a = hta();
-  long_tops.push_back({a, splitting_reference(a, 10000), 1e-3, {}, {}, {}, {}, {}});
-  {
-    const Reference coarser = splitting_reference(a, 5000);
-    long_tops[2].ref.check = "differs from the same run at h = 2e-3 by " + num(distance(long_tops[2].ref, coarser));
-    benchmark::AddCustomContext("reference_hta", long_tops[2].ref.source + "; " + long_tops[2].ref.check);
-  }
-  const auto b = ht2a();
-  long_tops.push_back({b, splitting_reference(b, 8000), 1e-3, {}, {}, {}, {}, {}});
-  {
-    const Reference coarser = splitting_reference(b, 4000);
-    long_tops[3].ref.check = "differs from the same run at h = 5e-4 by " + num(distance(long_tops[3].ref, coarser));
-    benchmark::AddCustomContext("reference_ht2a", long_tops[3].ref.source + "; " + long_tops[3].ref.check);
-  }
+  // The asymmetric tops' references: converged long-double runs (the earlier double
+  // Kahan–Li-9 references were off by ~2.5e-10, the level of the 1e-10 rows).
+  long_tops.push_back({hta<double>(), long_double_reference<hta<long double>>(8000), 1e-3, {}, {}, {}, {}, {}});
+  long_tops.push_back({ht2a<double>(), long_double_reference<ht2a<long double>>(8000), 1e-3, {}, {}, {}, {}, {}});
+  long_tops.push_back({htn<double>(), long_double_reference<htn<long double>>(8000), 1e-3, {}, {}, {}, {}, {}});
+  long_tops.push_back({htf<double>(), long_double_reference<htf<long double>>(8000), 1e-3, {}, {}, {}, {}, {}});
+  for (const char* name : {"hta", "ht2a", "htn", "htf"})
+    for (const auto& p : long_tops)
+      if (std::string(p.c.name) == name)
+        benchmark::AddCustomContext(std::string("reference_") + name, p.ref.source + "; " + p.ref.check);
   const Problem<Top>& p0 = long_tops[0];
   const Problem<Top>& p1 = long_tops[1];
   const Problem<Top>& pa = long_tops[2];
   const Problem<Top>& pb = long_tops[3];
+  const Problem<Top>& pn = long_tops[4];
+  const Problem<Top>& pf = long_tops[5];
   for (const bool projected : {false, true}) {
     auto one = [&](const Problem<Top>& p, SplittingMethod m, const Grid& grid) {
       if (projected) sweep<SplittingProjected>(p, m, grid);
@@ -195,6 +246,22 @@ void register_splitting_sweeps() {
   sweep<Splitting>(pb, SplittingMethod::kahan_li_9, {1e-2, 1e-3});
   sweep<Splitting>(pb, SplittingMethod::chin_4a, {5e-3, 2.5e-4});
   sweep<Splitting>(pb, SplittingMethod::chin_triple_jump, {1e-2, 1e-3});
+  // The methods on the exact free flow [F8] (Chin's T is exact on these bodies now): the
+  // near-integrable compositions with correctors, on HTA, HT2A and our two tops.
+  for (SplittingMethod m : {SplittingMethod::saba2c, SplittingMethod::saba3c, SplittingMethod::saba4c,
+                            SplittingMethod::sbab2c, SplittingMethod::sbab3c}) {
+    sweep<Splitting>(pa, m, {5e-2, 2e-3});
+    sweep<Splitting>(pb, m, {1e-2, 5e-4});
+    sweep<Splitting>(pn, m, {5e-2, 2e-3});
+    sweep<Splitting>(pf, m, {5e-2, 2e-3});
+  }
+  for (const Problem<Top>* p : {&pn, &pf}) {
+    sweep<Splitting>(*p, SplittingMethod::chin_4a, {5e-2, 2e-3});
+    sweep<Splitting>(*p, SplittingMethod::chin_triple_jump, {8e-2, 4e-3});
+    sweep<Splitting>(*p, SplittingMethod::kahan_li_9, {4e-2, 2e-3});
+  }
+  // FB1 to t = 100: every method is the exact free flow; large steps.
+  sweep<Splitting>(frees[0], SplittingMethod::strang, {100.0, 0.35});
 #ifdef TROMPO_HAVE_BOOST
   // t = 1000: dopri5 from tolerance 1e-9 to 1e-14 (HT0 needs 1e-13 for 1e-6 and does not
   // reach 1e-8), and a few runge_kutta4 steps around the bounds (HT0 at 1e-8: h ≈ 3e-5).
@@ -205,9 +272,10 @@ void register_splitting_sweeps() {
   register_baselines(pa, {1e-6, 3.1623e-7, 1e-7, 3.1623e-8, 1e-8, 3.1623e-9, 1e-9, 3.1623e-10, 1e-10, 3.1623e-11,
                           1e-11, 3.1623e-12, 1e-12, 3.1623e-13},
                      {1e-3, 5e-4, 2.5e-4});
-  register_baselines(pb, {1e-6, 3.1623e-7, 1e-7, 3.1623e-8, 1e-8, 3.1623e-9, 1e-9, 3.1623e-10, 1e-10, 3.1623e-11,
-                          1e-11, 3.1623e-12, 1e-12, 3.1623e-13},
-                     {});
+  for (const Problem<Top>* p : {&pb, &pn, &pf})
+    register_baselines(*p, {1e-6, 3.1623e-7, 1e-7, 3.1623e-8, 1e-8, 3.1623e-9, 1e-9, 3.1623e-10, 1e-10, 3.1623e-11,
+                            1e-11, 3.1623e-12, 1e-12, 3.1623e-13, 1e-13, 3.1623e-14},
+                       {});
 #endif
 }
 

@@ -62,9 +62,10 @@ constexpr const char* kUsage =
     "  --composition blanes-casas-murua-13   processed order 6: a 13-step kernel between a pre- and a\n"
     "                               post-processor (12 steps each), every row post-processed\n"
     "  splitting (explicit, spin-exact; docs/splitting.md):\n"
-    "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9   with --scheme splitting\n"
-    "                               (suzuki-5, kahan-li-9: compositions of Strang); default by --order:\n"
-    "                               chin-4a / chin-triple-jump where they apply, else suzuki-5 / kahan-li-9\n"
+    "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9|saba2c|saba3c|saba4c|sbab2c|sbab3c\n"
+    "                               with --scheme splitting (suzuki-5, kahan-li-9: compositions of Strang;\n"
+    "                               sabaNc, sbabNc: Laskar-Robutel with corrector, small torques); default by\n"
+    "                               --order: chin-4a / chin-triple-jump where they apply, else suzuki-5 / kahan-li-9\n"
     "  --energy-projection          splitting: project H back after each step (keeps pi; no value)\n"
     // ---- families (docs/families.md) ----
     "  --scheme lie-gen-alpha|constrained-trapezoid|energy-decaying   the other families\n"
@@ -327,7 +328,9 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       c.energy_projection = true;
     } else if (flag == "--composition") {
       c.composition_name = value;
-      bool known = value == "strang" || value == "chin-4a" || value == "chin-triple-jump";  // splitting only
+      bool known = false;  // the splitting's own methods (strang, chin-4a, …, saba4c, sbab3c)
+      for (const auto m : trompo::all_splitting_methods)
+        if (value == trompo::to_string(m) && value != "suzuki-5" && value != "kahan-li-9") known = true;
       for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9,
                            trompo::Composition::mclachlan15, trompo::Composition::kahan_li17})
         if (value == trompo::to_string(m)) {
@@ -337,7 +340,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       if (value == "blanes-casas-murua-13") c.processed = known = true;
       if (!known)
         throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15, kahan-li-17 or blanes-casas-murua-13 (with --scheme splitting: strang, "
-                            "chin-4a, chin-triple-jump, suzuki-5 or kahan-li-9), got " + value);
+                            "chin-4a, chin-triple-jump, suzuki-5, kahan-li-9, saba2c, saba3c, saba4c, sbab2c or sbab3c), got " + value);
     } else if (flag == "--allow-negative-damping") {
       if (!value.empty()) throw invalid_input("--allow-negative-damping: a switch, it takes no value (got '" + value + "')");
       c.allow_negative_damping = true;
@@ -420,8 +423,11 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       for (const char* implicit_only : {"triple-jump", "mclachlan-15", "kahan-li-17", "blanes-casas-murua-13"})
         if (*c.composition_name == implicit_only)
           throw invalid_input("--composition " + *c.composition_name +
-                              ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9)");
-      const int k = *c.composition_name == "strang" ? 2 : *c.composition_name == "chin-4a" || *c.composition_name == "suzuki-5" ? 4 : 6;
+                              ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9, saba2c, "
+                              "saba3c, saba4c, sbab2c, sbab3c)");
+      int k = 6;
+      for (const auto m : trompo::all_splitting_methods)
+        if (*c.composition_name == trompo::to_string(m)) k = trompo::order_of(m);
       if (c.order_flag && *c.order_flag != k)
         throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
                             *c.composition_name + " (order " + std::to_string(k) + ")");
@@ -889,8 +895,7 @@ template <class Scene>
 trompo::SplittingMethod splitting_method(const Config& c, const Scene& scene) {
   using trompo::SplittingMethod;
   if (!c.composition_name) return trompo::Splitting::default_for(scene, c.order).method;
-  for (const auto m : {SplittingMethod::strang, SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump,
-                       SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9})
+  for (const auto m : trompo::all_splitting_methods)
     if (*c.composition_name == trompo::to_string(m)) return m;
   throw invalid_input("--composition: unknown splitting method " + *c.composition_name);
 }

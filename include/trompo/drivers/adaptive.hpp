@@ -1,5 +1,5 @@
 #pragma once
-// Adaptive steps: a tolerance in, a solution out (docs/adaptive.md; docs/theory.md §15, [A1]–[A6]).
+// Adaptive steps: a tolerance in, a solution out (docs/adaptive.md; docs/theory.md §16, [A1]–[A6]).
 //
 //   auto c = trompo::cases::ht1<double>();
 //   ComposedStepper<SimoKappa, HeavyTop<double>> stepper(SimoKappa{}, c.scene, 4);

@@ -1,5 +1,5 @@
 #pragma once
-// Dense output on SO(3) (docs/theory.md §15 [D1]–[D3]): the state between two accepted steps.
+// Dense output on SO(3) (docs/theory.md §16 [D1]–[D3]): the state between two accepted steps.
 //
 //   DenseNode<double> a = dense_node(scene, state_n), b = dense_node(scene, state_n1);
 //   LieHermite<double> seg(a, b);            // the step [t_n, t_n + h]

@@ -1,6 +1,6 @@
 #pragma once
 // Gravity gradient on a circular orbit: the attitude potential of a rigid satellite
-// (docs/theory.md §14, [G1]–[G6]; docs/spacecraft.md).
+// (docs/theory.md §15, [G1]–[G6]; docs/spacecraft.md).
 //
 //   RigidBody<double> body(Eigen::Vector3d(100, 120, 80));
 //   GravityGradient<double> gg(body, 0.0011, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX());

@@ -59,7 +59,12 @@ enum class SplittingMethod {
   chin_4a,           ///< order 4: Chin's 4A with the modified middle kick [S7]
   chin_triple_jump,  ///< order 6: triple jump of chin_4a
   suzuki_5,          ///< order 4: Suzuki's composition of Strang, kicks merged
-  kahan_li_9         ///< order 6: Kahan–Li's composition of Strang, kicks merged
+  kahan_li_9,        ///< order 6: Kahan–Li's composition of Strang, kicks merged
+  saba2c,            ///< Laskar–Robutel SABA2 with corrector: O(εh⁴ + ε²h⁴)   [F8]
+  saba3c,            ///< SABA3 with corrector: O(εh⁶ + ε²h⁴)
+  saba4c,            ///< SABA4 with corrector: O(εh⁸ + ε²h⁴)
+  sbab2c,            ///< SBAB2 with corrector: O(εh⁴ + ε²h⁴)
+  sbab3c             ///< SBAB3 with corrector: O(εh⁶ + ε²h⁴)
 };
 
 /// The CLI name of a splitting method ("strang", "chin-4a", …).
@@ -70,16 +75,27 @@ inline const char* to_string(SplittingMethod m) {
     case SplittingMethod::chin_triple_jump: return "chin-triple-jump";
     case SplittingMethod::suzuki_5: return "suzuki-5";
     case SplittingMethod::kahan_li_9: return "kahan-li-9";
+    case SplittingMethod::saba2c: return "saba2c";
+    case SplittingMethod::saba3c: return "saba3c";
+    case SplittingMethod::saba4c: return "saba4c";
+    case SplittingMethod::sbab2c: return "sbab2c";
+    case SplittingMethod::sbab3c: return "sbab3c";
   }
   return "unknown";
 }
 
-/// The order of a splitting method: 2, 4 or 6.
+/// The order of a splitting method: 2, 4 or 6. The corrected near-integrable compositions
+/// count as order 4 (their ε²h⁴ term; the ε term is of order 2n, [F8]).
 constexpr int order_of(SplittingMethod m) {
   switch (m) {
     case SplittingMethod::strang: return 2;
     case SplittingMethod::chin_4a:
-    case SplittingMethod::suzuki_5: return 4;
+    case SplittingMethod::suzuki_5:
+    case SplittingMethod::saba2c:
+    case SplittingMethod::saba3c:
+    case SplittingMethod::saba4c:
+    case SplittingMethod::sbab2c:
+    case SplittingMethod::sbab3c: return 4;
     case SplittingMethod::chin_triple_jump:
     case SplittingMethod::kahan_li_9: return 6;
   }
@@ -90,6 +106,64 @@ constexpr int order_of(SplittingMethod m) {
 constexpr bool is_chin(SplittingMethod m) {
   return m == SplittingMethod::chin_4a || m == SplittingMethod::chin_triple_jump;
 }
+
+/// The corrected near-integrable compositions SABA_nC, SBAB_nC of Laskar & Robutel [F8]:
+/// they need the exact free flow (no rotor) and a force gradient (potentials only).
+constexpr bool is_near_integrable(SplittingMethod m) {
+  return m == SplittingMethod::saba2c || m == SplittingMethod::saba3c || m == SplittingMethod::saba4c ||
+         m == SplittingMethod::sbab2c || m == SplittingMethod::sbab3c;
+}
+
+/// Every splitting method, in the order of the enum (CLI names by to_string).
+inline constexpr SplittingMethod all_splitting_methods[] = {
+    SplittingMethod::strang, SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump,
+    SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9, SplittingMethod::saba2c,
+    SplittingMethod::saba3c, SplittingMethod::saba4c, SplittingMethod::sbab2c, SplittingMethod::sbab3c};
+
+namespace detail {
+/// The coefficients of a near-integrable composition [F8] (Laskar & Robutel 2001, Tables 1–2):
+/// SABA_n: A(c₁h) B(d₁h) A(c₂h) … B(d₁h) A(c₁h), kicks at the Gauss–Legendre nodes with their
+/// weights; SBAB_n: B(d₁h) A(c₂h) B(d₂h) … A(c₂h) B(d₁h), kicks at the Lobatto nodes. The
+/// corrector at each end is the force-gradient kick Π += g h³ KᵀJ⁻¹τ.
+struct NearIntegrable {
+  bool kick_first = false;  ///< SBAB (true) or SABA (false)
+  int n_free = 0;           ///< free flows A in the whole step
+  long double c[5] = {};    ///< the free-flow fractions, first half (palindromic)
+  long double d[5] = {};    ///< the kick fractions, first half (palindromic)
+  long double g = 0;        ///< the corrector's weight
+  static NearIntegrable of(SplittingMethod m) {
+    NearIntegrable r;
+    switch (m) {
+      case SplittingMethod::saba2c:  // c₁ = ½ − √3/6, c₂ = √3/3; d₁ = ½; g = (2 − √3)/24
+        r = {false, 3, {0.211324865405187117745425609748929016L, 0.577350269189625764509148780501957456L}, {0.5L}, 0.0111645496846301127696897357705886514L};
+        break;
+      case SplittingMethod::saba3c:  // c₁ = ½ − √15/10, c₂ = √15/10; d = 5/18, 4/9; g = (54 − 13√15)/648
+        r = {false, 4, {0.112701665379258311482073460021760038L, 0.387298334620741688517926539978239962L},
+             {0.277777777777777777777777777777777778L, 0.444444444444444444444444444444444444L},
+             0.00563459336312280940226782376979753867L};
+        break;
+      case SplittingMethod::saba4c:  // Gauss–Legendre 4 nodes and weights
+        r = {false, 5,
+             {0.0694318442029737123880267555535953352L, 0.260577634004598155210640364894782409L,
+              0.339981043584856264802665759103244687L},
+             {0.173927422568726928686531974610999704L, 0.326072577431273071313468025389000296L},
+             0.003396775048208601331532157783492144L};
+        break;
+      case SplittingMethod::sbab2c:  // c₂ = ½; d = 1/6, 2/3; g = 1/72
+        r = {true, 2, {0.0L, 0.5L}, {0.166666666666666666666666666666666667L, 0.666666666666666666666666666666666667L},
+             0.0138888888888888888888888888888888889L};
+        break;
+      case SplittingMethod::sbab3c:  // c₂ = ½ − √5/10, c₃ = √5/5; d = 1/12, 5/12; g = (13 − 5√5)/288
+        r = {true, 3, {0.0L, 0.276393202250021030359082633126872376L, 0.447213595499957939281834733746255248L},
+             {0.0833333333333333333333333333333333333L, 0.416666666666666666666666666666666667L},
+             0.00631826427951753999289629047341534313L};
+        break;
+      default: break;
+    }
+    return r;
+  }
+};
+}  // namespace detail
 
 namespace detail {
 /// What the effects of a scene (a tuple of effects) need from the splitting.
@@ -162,7 +236,18 @@ struct SplittingScheme {
   /// Throws invalid_input if the method is not offered on this scene (a Chin method with an
   /// applied torque or damping, whose force-gradient term [S7] does not apply).
   template <class Scene>
-  void check(const Scene&) const {
+  void check(const Scene& scene) const {
+    if (is_near_integrable(method)) {
+      if (!detail::splitting_effects_of<Scene>::conservative)
+        detail::fail("splitting: method ", to_string(method),
+                     " needs a scene whose effects are potentials (its corrector is a force gradient [F8]); this "
+                     "scene has applied torques or damping: use strang, suzuki-5 or kahan-li-9");
+      if constexpr (Scene::has_rotor)
+        if (scene.rotor_momentum() != Eigen::Matrix<typename Scene::Scalar, 3, 1>::Zero())
+          detail::fail("splitting: method ", to_string(method),
+                       " needs the exact free flow [F1]-[F7], which a rotor's gyrostat term does not have: use "
+                       "chin-4a or the Strang compositions");
+    }
     if (is_chin(method) && !detail::splitting_effects_of<Scene>::conservative)
       detail::fail("splitting: method ", to_string(method),
                    " needs a scene whose effects are potentials and rotors (its modified kick is a force "
@@ -179,7 +264,11 @@ struct SplittingScheme {
     if (wanted_order != 2 && wanted_order != 4 && wanted_order != 6) detail::fail("splitting: order must be 2, 4 or 6, got ", wanted_order);
     if (wanted_order == 2) return SplittingScheme(SplittingMethod::strang);
     const auto frame = detail::SplittingFrame<typename Scene::Scalar>::of(scene);
-    const bool chin = detail::splitting_effects_of<Scene>::conservative && frame.free_flow_exact();
+    // Chin wherever its free flow T is exact: S on a symmetric body, the Euler–Poinsot flow
+    // [F1]–[F7] on an asymmetric one without rotor (measured, docs/splitting.md: on HTA at
+    // 1e-8 Chin 4A on the exact flow beats Suzuki-5 and Kahan–Li-9).
+    const bool chin = detail::splitting_effects_of<Scene>::conservative &&
+                      (frame.free_flow_exact() || frame.rotor_rate == typename Scene::Scalar(0));
     if (wanted_order == 4) return SplittingScheme(chin ? SplittingMethod::chin_4a : SplittingMethod::suzuki_5);
     return SplittingScheme(chin ? SplittingMethod::chin_triple_jump : SplittingMethod::kahan_li_9);
   }
@@ -201,13 +290,17 @@ struct SplittingScheme {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     StepReport<Scalar> rep;
-    if (is_chin(method) && !Effects::conservative) {
+    if ((is_chin(method) || is_near_integrable(method)) && !Effects::conservative) {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
     const bool fresh = !memory.ready;
     if (fresh) memory = detail::SplittingFrame<Scalar>::of(scene).compact();
     const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::expand(memory);
+    if (is_near_integrable(method) && !f.free_flow_exact() && !f.exact_free) {
+      rep.status = StepStatus::invalid_step;  // a rotor: check() says why
+      return rep;
+    }
 
     // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
     detail::SplitState<Scalar> x;
@@ -252,6 +345,13 @@ struct SplittingScheme {
             chin<Scene>(scene, f, x, h, g, 3);
           }
         }
+        break;
+      case SplittingMethod::saba2c:
+      case SplittingMethod::saba3c:
+      case SplittingMethod::saba4c:
+      case SplittingMethod::sbab2c:
+      case SplittingMethod::sbab3c:
+        if constexpr (Effects::conservative) near_integrable<Scene>(scene, f, x, h, detail::NearIntegrable::of(method));
         break;
     }
     if constexpr (EnergyProjection) detail::project_energy(scene, f, x, memory.energy);
@@ -323,6 +423,10 @@ struct SplittingScheme {
       detail::flow_symmetric(f, x, h);
       return;
     }
+    if (m == 1 && ids[0] == asymmetric_flow && f.exact_free) {  // a free asymmetric body: exact [F8]
+      detail::flow_exact_free(f, x, h);
+      return;
+    }
     if constexpr (detail::splitting_effects_of<Scene>::has_kick) {
       if (m == 1 && ids[0] == kick_flow) {  // the symmetric heavy top: K S K S … K
         detail::flow_kick(scene, f, x, w[0] * h / 2);
@@ -353,6 +457,8 @@ struct SplittingScheme {
                         Scalar tau) {
     if (f.free_flow_exact()) {
       detail::flow_symmetric(f, x, tau);
+    } else if (f.exact_free) {  // asymmetric, no rotor: the Euler–Poinsot flow [F1]–[F7]
+      detail::flow_exact_free(f, x, tau);
     } else {
       const auto c = CompositionCoefficients<Scalar>::of(Composition::suzuki5);
       composed_strang<Scene>(scene, f, x, tau, c.gamma.data(), c.stages, false);
@@ -372,6 +478,51 @@ struct SplittingScheme {
       free_flow<Scene>(scene, f, x, tau / 2);
       if constexpr (Scene::has_potential)
         detail::flow_kick(scene, f, x, (j + 1 < n ? g[j] + g[j + 1] : g[j]) * h / 6);
+    }
+  }
+
+  /// A corrected near-integrable composition [F8] on the exact free flow T: SABA_nC is
+  /// C A(c₁h) B(d₁h) A(c₂h) … A(c₁h) C, SBAB_nC is (B(d₁h) C) A(c₂h) B(d₂h) … A(c₂h) (B(d₁h) C)
+  /// with C the corrector Π += g h³ KᵀJ⁻¹τ (merged into SBAB's end kicks: same Λ).
+  template <class Scene, class Scalar>
+  static void near_integrable(const Scene& scene, const detail::SplittingFrame<Scalar>& f,
+                              detail::SplitState<Scalar>& x, Scalar h, const detail::NearIntegrable& c) {
+    if constexpr (!Scene::has_potential) {  // torque-free: the exact flow itself
+      free_flow<Scene>(scene, f, x, h);
+      return;
+    } else {
+      near_integrable_loaded<Scene>(scene, f, x, h, c);
+    }
+  }
+
+  template <class Scene, class Scalar>
+  static void near_integrable_loaded(const Scene& scene, const detail::SplittingFrame<Scalar>& f,
+                                     detail::SplitState<Scalar>& x, Scalar h, const detail::NearIntegrable& c) {
+    const Scalar h3g = Scalar(c.g) * h * h * h;
+    auto drift = [&](Scalar tau) { free_flow<Scene>(scene, f, x, tau); };
+    auto kick = [&](int i) { detail::flow_kick(scene, f, x, Scalar(c.d[i]) * h); };
+    if (!c.kick_first) {
+      // SABA_n: n_free = n + 1 flows, n kicks; fractions c[0..], d[0..] mirrored about the middle
+      const int nf = c.n_free, nk = nf - 1;
+      detail::flow_gradient_kick(scene, f, x, Scalar(0), h3g, false);
+      for (int i = 0; i < nf; ++i) {
+        const int ci = i < (nf + 1) / 2 ? i : nf - 1 - i;
+        drift(Scalar(c.c[ci]) * h);
+        if (i < nk) kick(i < (nk + 1) / 2 ? i : nk - 1 - i);
+      }
+      detail::flow_gradient_kick(scene, f, x, Scalar(0), h3g, false);
+    } else {
+      // SBAB_n: n flows, n + 1 kicks; the fractions c start at index 1 (c[0] = 0)
+      const int nf = c.n_free, nk = nf + 1;
+      const Scalar d0 = Scalar(c.d[0]) * h;
+      detail::flow_gradient_kick(scene, f, x, d0, h3g / d0, true);
+      for (int i = 0; i < nf; ++i) {
+        const int ci = 1 + (i < (nf + 1) / 2 ? i : nf - 1 - i);
+        drift(Scalar(c.c[ci]) * h);
+        const int ki = i + 1;
+        if (ki < nk - 1) kick(ki < (nk + 1) / 2 ? ki : nk - 1 - ki);
+      }
+      detail::flow_gradient_kick(scene, f, x, d0, h3g / d0, true);
     }
   }
 };

@@ -1,0 +1,332 @@
+#pragma once
+// The exact torque-free rotation of any rigid body (Euler–Poinsot), docs/theory.md §14
+// [F1]–[F7]: the free sub-flow of the splittings on asymmetric bodies (schemes/splitting/),
+// a step of its own, and the machinery of exact::FreeBody. Pure rotation-group maths on
+// (q, Π), hence in lie/.
+//
+//   EulerPoinsot<double> flow(Eigen::Vector3d(1, 2, 3));   // principal moments, any order
+//   flow.advance(q, Pi, h);   // (Λ, Π) ← exact free flow over h, in the principal body frame
+//
+// One call reads the phase (sn, cn, dn)(u₀) off Π [F4] (no complete elliptic integral, no
+// amplitude), advances it by the addition theorems with (sn, cn, dn) of the increment only
+// [F5], writes Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π|
+// by about an ulp per step), and turns the attitude by the minimal rotations a(Π) and the
+// precession angle ψ, integrated by 7-point Gauss–Legendre on panels |λ|h_p ≤ ½ [F6]; after
+// each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
+// dn² = m' + m cn² (chained additions are unstable next to the separatrix). The quaternion
+// is renormalised at the end.
+//
+// Branches [F7]: two equal moments (|ΔJ| ≤ 8ε·max J) take the exact symmetric flow [S2];
+// a pure spin about any principal axis, k² → 0 and k² → 1 (including exactly on the
+// separatrix, m' = 0: tanh, sech) go through the general formulas, which stay finite
+// there; both senses of rotation (σ = sgn Π₁). Π = 0: nothing moves.
+// No allocation, no virtual call; Scalar = float, double or long double.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
+
+#include "trompo/errors.hpp"
+#include "trompo/lie/jacobi.hpp"
+
+namespace trompo {
+
+namespace detail {
+/// Gauss–Legendre on [−1, 1] with 7 points: the centre and three symmetric pairs.
+template <class Scalar>
+struct GaussLegendre7 {
+  static constexpr Scalar w0 = Scalar(0.417959183673469387755102040816326531L);
+  static constexpr Scalar x[3] = {Scalar(0.405845151377397166906606412076961463L),
+                                  Scalar(0.741531185599394439863864773280788407L),
+                                  Scalar(0.949107912342758524526189684047851262L)};
+  static constexpr Scalar w[3] = {Scalar(0.381830050505118944950369775488975134L),
+                                  Scalar(0.279705391489276667901467771423779582L),
+                                  Scalar(0.129484966168869693270611432679082018L)};
+};
+}  // namespace detail
+
+/// The exact free rotation of a rigid body with principal moments J (in the frame where Π is
+/// given): constants computed once from J, then advance() at any (q, Π, h).
+template <class Scalar>
+class EulerPoinsot {
+ public:
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  using Quaternion = Eigen::Quaternion<Scalar>;
+
+  /// Largest |λ|·h of one quadrature panel [F6] (7 points hold round-off up to here).
+  static constexpr Scalar panel_max = Scalar(0.5);
+
+  EulerPoinsot() : EulerPoinsot(Vector3::Ones()) {}
+  /// Principal moments J (all finite and > 0, any order). Throws invalid_input otherwise.
+  explicit EulerPoinsot(const Vector3& J) : J_(J) {
+    using std::abs;
+    using std::sqrt;
+    for (int i = 0; i < 3; ++i)
+      if (!(std::isfinite(J(i)) && J(i) > Scalar(0)))
+        detail::fail("EulerPoinsot: the principal moments J must be finite and > 0, got ", detail::to_text(J));
+    const Scalar tol = Scalar(8) * std::numeric_limits<Scalar>::epsilon() * J.maxCoeff();
+    for (int s = 0; s < 3; ++s) {  // two equal moments J_a = J_b: symmetric about s [S2]
+      const int a = (s + 1) % 3, b = (s + 2) % 3;
+      if (abs(J(a) - J(b)) <= tol) {
+        symmetric_ = true;
+        s_axis_ = s;
+        Ja_inv_ = Scalar(1) / J(a);
+        c_s_ = Scalar(1) / J(s) - Ja_inv_;
+        return;
+      }
+    }
+    Eigen::Index lo = 0, hi = 0;
+    J.minCoeff(&lo);
+    J.maxCoeff(&hi);
+    imin_ = int(lo), imax_ = int(hi), imid_ = 3 - imin_ - imax_;
+    c_max_ = (J(imax_) - J(imid_)) / J(imax_);
+    c_min_ = (J(imin_) - J(imid_)) / J(imin_);
+    slots_[0] = make_slots(imax_, imid_, imin_);  // G² ≥ 2T J_mid: the polhode circles the max axis
+    slots_[1] = make_slots(imin_, imid_, imax_);  // else the min axis [F2]
+  }
+
+  /// The principal moments.
+  const Vector3& inertia() const { return J_; }
+  /// Whether two moments are equal (the symmetric flow [S2] is used).
+  bool symmetric() const { return symmetric_; }
+
+  /// The invariants of a momentum, as the flow reads them [F1]–[F3]: k² (m), 1 − k² (mc),
+  /// the rate λ of the phase u, and the slot-1 axis (the one the polhode circles).
+  struct Invariants {
+    Scalar m = Scalar(0), mc = Scalar(1), lambda = Scalar(0);
+    int circled_axis = 0;
+  };
+  /// The invariants of Π (a symmetric body: m = 0, λ = 0).
+  Invariants invariants(const Vector3& Pi) const {
+    Invariants inv;
+    if (symmetric_) return inv;
+    const Phase ph = phase(Pi);
+    inv.m = ph.m, inv.mc = ph.mc, inv.lambda = ph.lambda, inv.circled_axis = slots_[ph.cfg].p[0];
+    return inv;
+  }
+
+  /// The period of Π(t) from Π, 4K(k)/|λ| [F3]: after it Π returns and Λ has turned about
+  /// π by a fixed angle. +∞ where there is none to use: a symmetric body (its flow is a
+  /// closed form), Π = 0, the separatrix.
+  Scalar period(const Vector3& Pi) const {
+    using std::abs;
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    if (symmetric_) return inf;
+    const Phase ph = phase(Pi);
+    if (!(abs(ph.lambda) > Scalar(0))) return inf;
+    return Scalar(4) * JacobiModulus<Scalar>(ph.m, ph.mc).quarter_period() / abs(ph.lambda);
+  }
+
+  /// (q, Π) ← the exact free flow over h [F3]–[F6]; q (body → space, unit) and Π (body
+  /// momentum) in the frame of J. Non-finite input or h gives non-finite output.
+  void advance(Quaternion& q, Vector3& Pi, Scalar h) const {
+    if (symmetric_) {
+      advance_symmetric(q, Pi, h);
+    } else {
+      advance_general(q, Pi, h);
+    }
+    q.normalize();
+  }
+
+ private:
+  // One slot configuration [F2]: slot i holds body axis p[i] with sign sg[i] (det +1), and
+  // the constants of [F3] that depend on the moments only.
+  struct Slots {
+    int p[3] = {0, 1, 2};
+    Scalar sg3 = Scalar(1);                 // sign of slot 3 (slots 1, 2 keep theirs)
+    Scalar iI1 = 0, iI2 = 0, iI3 = 0;       // 1/I_i
+    Scalar c21 = 0, c31 = 0, c13 = 0, c23 = 0;  // I_ij/I_i: Δ1 = Π2² c21 + Π3² c31, Δ3 = Π1² c13 + Π2² c23
+    Scalar km = 0, kmc = 0;                 // m = |Δ1 km/Δ3|, m' = |Δ2 kmc/Δ3|
+    Scalar rb1 = 0, rb2 = 0, rb3 = 0;       // √|I1/I13|, √|I2/I21|, √|I3/I31|: B1 = rb1√|Δ3|, B2,3 = rb2,3√|Δ1|
+    Scalar rlam = 0, lam_sign = 0;          // |λ| = rlam √|Δ3|, λ = σ·lam_sign·|λ|
+  };
+
+  Slots make_slots(int p1, int p2, int p3) const {
+    using std::abs;
+    using std::sqrt;
+    Slots s;
+    s.p[0] = p1, s.p[1] = p2, s.p[2] = p3;
+    const bool even = (p2 == (p1 + 1) % 3);
+    s.sg3 = even ? Scalar(1) : Scalar(-1);
+    const Scalar I1 = J_(p1), I2 = J_(p2), I3 = J_(p3);
+    s.iI1 = Scalar(1) / I1, s.iI2 = Scalar(1) / I2, s.iI3 = Scalar(1) / I3;
+    s.c21 = (I2 - I1) / I2, s.c31 = (I3 - I1) / I3;
+    s.c13 = (I1 - I3) / I1, s.c23 = (I2 - I3) / I2;
+    s.km = (I3 - I2) / (I1 - I2);
+    s.kmc = (I1 - I3) / (I1 - I2);
+    s.rb1 = sqrt(abs(I1 / (I1 - I3)));
+    s.rb2 = sqrt(abs(I2 / (I2 - I1)));
+    s.rb3 = sqrt(abs(I3 / (I3 - I1)));
+    s.rlam = sqrt(abs((I1 - I2) / (I1 * I2 * I3)));
+    s.lam_sign = (I2 - I1) > Scalar(0) ? Scalar(-1) : Scalar(1);  // λ = −σ sgn(I21)|λ| [F3]
+    return s;
+  }
+
+  // The state of the polhode read off Π [F3], [F4].
+  struct Phase {
+    int cfg = 0;
+    Scalar P1 = 0, P2 = 0, P3 = 0;      // Π in slots
+    Scalar G = 0, T2 = 0, D1 = 0;       // |Π|, 2T, Δ1
+    Scalar m = 0, mc = 1, lambda = 0, sigma = 1;
+    Scalar B1 = 0, B2 = 0, B3 = 0;
+    Scalar s = 0, c = 1, d = 1;         // (sn, cn, dn)(u₀)
+  };
+
+  Phase phase(const Vector3& Pi) const {
+    using std::abs;
+    using std::sqrt;
+    Phase ph;
+    const Scalar Pmax = Pi(imax_), Pmin = Pi(imin_);
+    const Scalar D2 = Pmax * Pmax * c_max_ + Pmin * Pmin * c_min_;  // Δ_mid = G² − 2T J_mid [F2]
+    ph.cfg = D2 >= Scalar(0) ? 0 : 1;
+    const Slots& C = slots_[ph.cfg];
+    ph.P1 = Pi(C.p[0]), ph.P2 = Pi(C.p[1]), ph.P3 = C.sg3 * Pi(C.p[2]);
+    const Scalar P1s = ph.P1 * ph.P1, P2s = ph.P2 * ph.P2, P3s = ph.P3 * ph.P3;
+    const Scalar G2 = P1s + P2s + P3s;
+    ph.G = sqrt(G2);
+    ph.T2 = P1s * C.iI1 + P2s * C.iI2 + P3s * C.iI3;
+    // [F3] Δ1 = G² − 2T I1, Δ3 = G² − 2T I3 as sums of same-signed terms
+    ph.D1 = P2s * C.c21 + P3s * C.c31;
+    const Scalar D3 = P1s * C.c13 + P2s * C.c23;
+    if (!(G2 > Scalar(0)) || !(D3 != Scalar(0))) return ph;  // Π = 0 (D3 = 0 only then)
+    ph.sigma = ph.P1 >= Scalar(0) ? Scalar(1) : Scalar(-1);
+    const Scalar iD3 = Scalar(1) / D3;
+    ph.m = abs(ph.D1 * C.km * iD3);
+    ph.mc = abs(D2 * C.kmc * iD3);
+    if (ph.m > Scalar(1)) ph.m = Scalar(1);
+    if (ph.mc > Scalar(1)) ph.mc = Scalar(1);
+    const Scalar r3 = sqrt(abs(D3)), r1 = sqrt(abs(ph.D1));
+    ph.lambda = ph.sigma * C.lam_sign * C.rlam * r3;
+    ph.B1 = C.rb1 * r3, ph.B2 = C.rb2 * r1, ph.B3 = C.rb3 * r1;
+    // [F4] sn u₀ = −Π2/B2, cn u₀ = Π3/B3, dn u₀ = |Π1|/B1 (Δ1 = 0: pure spin about slot 1, u₀ = 0)
+    if (r1 > Scalar(0)) ph.s = -ph.P2 / ph.B2, ph.c = ph.P3 / ph.B3;
+    ph.d = abs(ph.P1) / ph.B1;
+    return ph;
+  }
+
+  // [F5] in increment form: (Δs, Δc, Δd) = (sn, cn, dn)(u + v) − (s, c, d) for the increment
+  // v given by its values w, each a sum of small terms.
+  static void add_increment(Scalar m, Scalar s, Scalar c, Scalar d, const JacobiValues<Scalar>& w, Scalar& ds,
+                            Scalar& dc, Scalar& dd) {
+    const Scalar msw = m * s * s * w.sn * w.sn;
+    const Scalar r = Scalar(1) / (Scalar(1) - msw);
+    const Scalar e = w.one_minus_cn + w.one_minus_dn * w.cn;  // 1 − cn v dn v
+    ds = (w.sn * c * d - s * e + s * msw) * r;
+    dc = (c * msw - c * w.one_minus_cn - s * d * w.sn * w.dn) * r;
+    dd = (d * msw - d * w.one_minus_dn - m * s * c * w.sn * w.cn) * r;
+  }
+
+  void advance_general(Quaternion& q, Vector3& Pi, Scalar h) const {
+    using std::abs;
+    using std::ceil;
+    using std::cos;
+    using std::sin;
+    using std::sqrt;
+    using GL = detail::GaussLegendre7<Scalar>;
+    const Phase ph = phase(Pi);
+    if (!(ph.G > Scalar(0))) {
+      if (!std::isfinite(ph.G) || !std::isfinite(h)) Pi.setConstant(std::numeric_limits<Scalar>::quiet_NaN());
+      return;  // at rest: nothing moves
+    }
+    if (!std::isfinite(h) || !std::isfinite(ph.G)) {
+      Pi.setConstant(std::numeric_limits<Scalar>::quiet_NaN());
+      return;
+    }
+    const Slots& C = slots_[ph.cfg];
+    const Scalar m = ph.m, G = ph.G;
+    // panels with |λ| h_p ≤ ½ [F6]
+    const Scalar span = abs(ph.lambda * h) / panel_max;
+    const long panels = span > Scalar(1) ? long(ceil(span)) : 1L;
+    const Scalar hp = h / Scalar(panels);
+    const Scalar v = Scalar(0.5) * ph.lambda * hp;  // the half-panel increment of u
+    const JacobiModulus<Scalar> L(m, ph.mc);
+    const JacobiValues<Scalar> half = jacobi_sncndn(L, v);
+    JacobiValues<Scalar> node[3];
+    for (int i = 0; i < 3; ++i) node[i] = jacobi_sncndn(L, v * GL::x[i]);
+
+    Scalar s = ph.s, c = ph.c, d = ph.d;
+    Scalar Q1 = ph.P1, Q2 = ph.P2, Q3 = ph.P3;  // Π in slots, advanced by increments
+    const Scalar sB1 = ph.sigma * ph.B1;
+    Scalar sum = Scalar(0);  // Σ over panels of the GL sum of p/(G + p), p = B1 dn
+    for (long k = 0; k < panels; ++k) {
+      Scalar ds, dc, dd;
+      add_increment(m, s, c, d, half, ds, dc, dd);  // to the panel's midpoint
+      // Π(u) = (σB1 dn, −B2 sn, B3 cn) [F3], in increment form
+      Q1 += sB1 * dd, Q2 -= ph.B2 * ds, Q3 += ph.B3 * dc;
+      const Scalar sm = s + ds, cm = c + dc, dm = d + dd;
+      const Scalar pm = ph.B1 * dm;
+      Scalar panel = GL::w0 * pm / (G + pm);
+      const Scalar msc = m * sm * cm, ms2 = m * sm * sm;
+      for (int i = 0; i < 3; ++i) {
+        // dn(u_m ± w) = (d_m dn w ∓ m s_m c_m sn w cn w)/(1 − m s_m² sn² w)   [F5]
+        const JacobiValues<Scalar>& w = node[i];
+        const Scalar r = ph.B1 / (Scalar(1) - ms2 * w.sn * w.sn);
+        const Scalar a = dm - dm * w.one_minus_dn, b = msc * w.sn * w.cn;
+        const Scalar pp = (a - b) * r, pq = (a + b) * r;
+        panel += GL::w[i] * (pp / (G + pp) + pq / (G + pq));
+      }
+      sum += panel;
+      add_increment(m, sm, cm, dm, half, ds, dc, dd);  // to the panel's end
+      Q1 += sB1 * dd, Q2 -= ph.B2 * ds, Q3 += ph.B3 * dc;
+      s = sm + ds, c = cm + dc, d = dm + dd;
+      if (panels > 1) {  // back onto sn² + cn² = 1, dn² = m' + m cn² [F6]
+        const Scalar rn = Scalar(1) / sqrt(s * s + c * c);
+        s *= rn, c *= rn;
+        d = sqrt(ph.mc + m * c * c);
+      }
+    }
+    // [F6] Δψ = h·2T/G + κ ∫ p/(G + p) dt, κ = Δ1/(G I1); each panel's GL sum times h_p/2
+    const Scalar dpsi = h * ph.T2 / G + (ph.D1 / (G * J_(C.p[0]))) * (Scalar(0.5) * hp) * sum;
+
+    const Vector3 n0 = Pi / G;
+    Pi(C.p[0]) = Q1, Pi(C.p[1]) = Q2, Pi(C.p[2]) = C.sg3 * Q3;
+    const Vector3 n1 = Pi / G;
+    // q ← q ⊗ r(n0, Δψ) ⊗ a(n0)* ⊗ a(n1), a(n) = (1 + n·e, n × e) (unnormalised) the minimal
+    // rotation of n onto e = σ e_{slot 1}; 1 + n·e ≥ 1 since σ = sgn Π₁. The norm of the
+    // product a0* a1 (in [2, 4]) is removed by the final normalisation.
+    const int ax = C.p[0];
+    auto n_cross_e = [&](const Vector3& n) {  // σ n × e_ax
+      const Vector3 r = ax == 0 ? Vector3(0, n.z(), -n.y()) : ax == 1 ? Vector3(-n.z(), 0, n.x()) : Vector3(n.y(), -n.x(), 0);
+      return Vector3(ph.sigma * r);
+    };
+    const Scalar w0 = Scalar(1) + ph.sigma * n0(ax), w1 = Scalar(1) + ph.sigma * n1(ax);
+    const Vector3 v0 = n_cross_e(n0), v1 = n_cross_e(n1);
+    const Vector3 pv = w0 * v1 - w1 * v0 - v0.cross(v1);
+    const Quaternion pa(w0 * w1 + v0.dot(v1), pv.x(), pv.y(), pv.z());
+    const Scalar sp = sin(Scalar(0.5) * dpsi), cp = cos(Scalar(0.5) * dpsi);
+    const Quaternion r(cp, sp * n0.x(), sp * n0.y(), sp * n0.z());
+    q = q * (r * pa);
+  }
+
+  // [S2] the symmetric free flow about axis s: Λ ← Λ exp(t Π̂/J_a) exp(t ν ê_s),
+  // Π ← exp(−t ν ê_s) Π, ν = (1/J_s − 1/J_a) Π_s (rotation of Π in increment form).
+  void advance_symmetric(Quaternion& q, Vector3& Pi, Scalar t) const {
+    using std::cos;
+    using std::sin;
+    const Scalar pn = Pi.norm();
+    const Scalar half = Scalar(0.5) * t * Ja_inv_ * pn;
+    const Scalar sh = sin(half), ch = cos(half);
+    const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);
+    q = q * Quaternion(ch, k * Pi.x(), k * Pi.y(), k * Pi.z());
+    const Scalar phi_half = Scalar(0.5) * t * c_s_ * Pi(s_axis_);
+    const Scalar sp = sin(phi_half), cp = cos(phi_half);
+    Vector3 axis_v = Vector3::Zero();
+    axis_v(s_axis_) = sp;
+    q = q * Quaternion(cp, axis_v.x(), axis_v.y(), axis_v.z());
+    const int i1 = s_axis_ == 0 ? 1 : s_axis_ == 1 ? 2 : 0, i2 = s_axis_ == 0 ? 2 : s_axis_ == 1 ? 0 : 1;
+    const Scalar cm1 = Scalar(-2) * sp * sp, s2 = Scalar(2) * sp * cp;
+    const Scalar x = Pi(i1), y = Pi(i2);
+    Pi(i1) = x + (cm1 * x + s2 * y);
+    Pi(i2) = y + (cm1 * y - s2 * x);
+  }
+
+  Vector3 J_;
+  bool symmetric_ = false;
+  int s_axis_ = 2;
+  Scalar Ja_inv_ = 0, c_s_ = 0;
+  int imin_ = 0, imid_ = 1, imax_ = 2;
+  Scalar c_max_ = 0, c_min_ = 0;  // Δ_mid = Π_max² c_max + Π_min² c_min
+  Slots slots_[2];
+};
+
+}  // namespace trompo

@@ -100,7 +100,7 @@ void register_steps(const Problem<SceneT>& p) {
     st.SetLabel(label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, p.h_step));
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
 #endif
-  for_each_registered<SceneT>([&](auto scheme) {
+  for_each_registered<SceneT>([&]([[maybe_unused]] auto scheme) {
     if constexpr (!std::is_same_v<decltype(scheme), SimoKappa>) register_step(p, scheme, 2);  // Simo-κ: above
   });
   for (Composition m : {Composition::triple_jump, Composition::suzuki5, Composition::kahan_li9}) {

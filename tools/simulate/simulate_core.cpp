@@ -88,7 +88,7 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSi
 inline int run_exact(const Config& c, const trompo::RigidBody<double>& body, const trompo::State<double>& s0, RowSink& out) {
   using namespace trompo;
 #if !TROMPO_HAVE_EXACT
-  (void)body, (void)s0, (void)out;
+  (void)c, (void)body, (void)s0, (void)out;
   throw invalid_input("--scheme exact: this build has no closed forms (Boost.Math headers were not found)");
 #else
   const M3& J = body.inertia();

@@ -2,7 +2,8 @@
 // every registered scheme, and every composition of it the tools run (ComposedStepper with
 // Suzuki-5 and ProcessedStepper, where the registry lets the tools compose it), is checked
 // for what its traits declare:
-//  - its order, observed from a Δt sweep on FB1 against the closed-form reference at t = 5;
+//  - its order, observed from a Δt sweep against the closed-form references (HT1: the
+//    scheme; FB1: the scheme and its compositions);
 //  - every invariant it declares it keeps (keeps<Scene>: H, μ, π, or H decaying) on HT1
 //    and FB1, and an orthonormal attitude whatever it keeps;
 //  - the failure contract: a failed step (h = NaN, a starved Newton, h far too large)
@@ -95,32 +96,49 @@ TEMPLATE_LIST_TEST_CASE("registry: every scheme has a unique name, an order and 
   CHECK(TestType::template steps<FreeScene<double>>);
 }
 
-TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep on FB1 (t = 5, h halved) within [p - 0.3, p + 0.6]",
+namespace {
+/// The observed order of every stepper of Entry from two runs to the reference row `ref`
+/// (h_coarse[p] and half of it, by the stepper's order p), within [p - 0.3, p + 0.6].
+template <class Entry, class Case>
+void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_test::Reference& ref, [[maybe_unused]] double h2,
+                 [[maybe_unused]] double h4, [[maybe_unused]] double h6, [[maybe_unused]] bool plain_only) {
+  using SceneT = typename Case::SceneT;
+  if constexpr (Entry::template steps<SceneT>) {
+    for_each_stepper<Entry>(c.scene, [&](const auto& st, int p, const char* label) {
+      if (plain_only && std::string(label) != "plain") return;
+      INFO("scheme " << Entry::name << ", " << label << ", order " << p << " on " << c.name);
+      // Coarse enough that the error stays far above round-off, fine enough to be asymptotic.
+      const double h = p <= 2 ? h2 : p <= 4 ? h4 : h6;
+      double err[2];
+      for (int k = 0; k < 2; ++k) {
+        const double hk = h / (1 << k);
+        auto traj = st.start(c.initial);
+        REQUIRE(advance(st, traj, hk, std::lround(ref.t / hk)));
+        err[k] = error_to(traj, ref);
+      }
+      const double observed = trompo_test::observed_order(err[0], err[1]);
+      INFO("errors " << err[0] << ", " << err[1] << ": observed order " << observed);
+      CHECK(observed >= p - 0.3);
+      CHECK(observed <= p + 0.6);
+    });
+  }
+}
+}  // namespace
+
+TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1; the scheme) and FB1 (t = 5; and its compositions) within [p - 0.3, p + 0.6]",
                         "[properties][order]", Entries) {
-  const auto fb1 = cases::fb1<double>();
-  for_each_stepper<TestType>(fb1.scene, [&](const auto& st, int p, const char* label) {
-    INFO("scheme " << TestType::name << ", " << label << ", order " << p);
-    // Coarse enough that the error stays far above round-off, fine enough to be asymptotic.
-    const double h = p <= 2 ? 0.02 : p <= 4 ? 0.1 : 0.25;
-    double err[2];
-    for (int k = 0; k < 2; ++k) {
-      const double hk = h / (1 << k);
-      auto traj = st.start(fb1.initial);
-      REQUIRE(advance(st, traj, hk, std::lround(5.0 / hk)));
-      err[k] = error_to(traj, trompo_test::fb1_t5);
-    }
-    const double observed = trompo_test::observed_order(err[0], err[1]);
-    INFO("errors " << err[0] << ", " << err[1] << ": observed order " << observed);
-    CHECK(observed >= p - 0.3);
-    CHECK(observed <= p + 0.6);
-  });
+  // HT1: the scheme itself. Its compositions on FB1: on the fast top the compositions of
+  // Simo's collocation are capped near order 3 by its α root switch (measured 3.25 for the
+  // processed one; test_composition.cpp keeps that case).
+  check_order<TestType>(cases::ht1<double>(), trompo_test::ht1_t1, 0.002, 0.01, 0.02, true);
+  check_order<TestType>(cases::fb1<double>(), trompo_test::fb1_t5, 0.02, 0.1, 0.25, false);
 }
 
 namespace {
 /// The invariants `keeps` declares, over n steps of h from the case's initial state, and
 /// an orthonormal attitude whatever it keeps.
 template <class Entry, class Case>
-void check_kept(const Case& c, double h, long n) {
+void check_kept([[maybe_unused]] const Case& c, [[maybe_unused]] double h, [[maybe_unused]] long n) {
   using SceneT = typename Case::SceneT;
   if constexpr (Entry::template steps<SceneT>) {
     for_each_stepper<Entry>(c.scene, [&](const auto& st, int, const char* label) {
@@ -163,7 +181,7 @@ TEMPLATE_LIST_TEST_CASE("registry: each declared invariant kept to 1e-12 over 40
 
 TEMPLATE_LIST_TEST_CASE("registry: a failed step (h = NaN, starved Newton, h = 50) leaves state and memory bit-identical",
                         "[properties][failure]", Entries) {
-  auto check_on = [](const auto& c) {
+  auto check_on = []([[maybe_unused]] const auto& c) {
     using SceneT = typename std::decay_t<decltype(c)>::SceneT;
     if constexpr (TestType::template steps<SceneT>) {
       NewtonOptions<double> starved;
@@ -197,14 +215,28 @@ TEMPLATE_LIST_TEST_CASE("registry: a failed step (h = NaN, starved Newton, h = 5
   check_on(cases::fb1<double>());
 }
 
-TEMPLATE_LIST_TEST_CASE("registry: backward steps: 50 steps of h then 50 of -h return to the start (symmetric: to 1e-11)",
+TEMPLATE_LIST_TEST_CASE("registry: backward steps: h then -h (symmetric: 1e-14), 50 steps of h then 50 of -h return to the start (symmetric: 1e-12)",
                         "[properties][backward]", Entries) {
-  auto check_on = [](const auto& c, double h) {
+  auto check_on = []([[maybe_unused]] const auto& c, [[maybe_unused]] double h) {
     using SceneT = typename std::decay_t<decltype(c)>::SceneT;
     if constexpr (TestType::template steps<SceneT>) {
       for_each_stepper<TestType>(c.scene, [&](const auto& st, int p, const char* label) {
         const bool sym = symmetric_stepper(st, label);
         INFO("scheme " << TestType::name << ", " << label << " on " << c.name << (sym ? " (symmetric)" : ""));
+        if (sym) {  // one step of h then −h, from the start and after 20 steps
+          for (int k = 0; k < 2; ++k) {
+            auto from = st.start(c.initial);
+            REQUIRE(advance(st, from, h, 20 * k));
+            auto t = from;
+            REQUIRE(st.step(t, h).ok());
+            REQUIRE(st.step(t, -h).ok());
+            const double dL1 = trompo_test::max_abs(t.rotation.matrix() - from.rotation.matrix());
+            const double dW1 = (t.omega - from.omega).norm() / from.omega.norm();
+            INFO("one step h, -h after " << 20 * k << " steps: |dLambda|_max " << dL1 << ", |dOmega|/|Omega| " << dW1);
+            CHECK(dL1 <= 1e-14);
+            CHECK(dW1 <= 1e-13);
+          }
+        }
         auto traj = st.start(c.initial);
         REQUIRE(advance(st, traj, h, 50));
         REQUIRE(advance(st, traj, -h, 50));
@@ -213,7 +245,7 @@ TEMPLATE_LIST_TEST_CASE("registry: backward steps: 50 steps of h then 50 of -h r
         INFO("|dLambda| " << dR << ", |dOmega|/|Omega| " << dW << ", t " << traj.time);
         CHECK(std::abs(traj.time) <= 1e-12);
         // Not symmetric: the two runs' errors of order p do not cancel.
-        const double tol = sym ? 1e-11 : 50 * std::pow(h * c.initial.omega.norm(), p);
+        const double tol = sym ? 1e-12 : 50 * std::pow(h * c.initial.omega.norm(), p);
         CHECK(dR <= tol);
         CHECK(dW <= tol);
       });
@@ -224,37 +256,40 @@ TEMPLATE_LIST_TEST_CASE("registry: backward steps: 50 steps of h then 50 of -h r
 }
 
 namespace {
-/// FB1 over 200 steps of h = 0.02 in Scalar: the kept invariants to 64 sqrt(N) eps, and
-/// the end state within `tol` of the double run.
-template <class Entry, class Scalar>
-void check_scalar(double tol) {
-  using SceneT = FreeScene<Scalar>;
+/// N = 400 steps of h in Scalar on a case: the kept invariants to 16 sqrt(N) eps (a random
+/// walk of round-off; measured up to 9 sqrt(N) eps: splitting's π on FB1 in float), and the
+/// end state within `tol` of the double run.
+template <class Entry, class Scalar, class Case, class CaseD>
+void check_scalar([[maybe_unused]] const Case& c, [[maybe_unused]] const CaseD& cd, [[maybe_unused]] double h,
+                  [[maybe_unused]] double tol) {
+  using SceneT = typename Case::SceneT;
   if constexpr (Entry::template steps<SceneT>) {
     using S = typename Entry::Scheme;
-    const auto c = cases::fb1<Scalar>();
-    const auto cd = cases::fb1<double>();
-    const long n = 200;
+    const long n = 400;
     const Stepper<S, SceneT> st(S{}, c.scene);
-    const Stepper<S, FreeScene<double>> sd(S{}, cd.scene);
+    const Stepper<S, typename CaseD::SceneT> sd(S{}, cd.scene);
     auto traj = st.start(c.initial);
     auto trajd = sd.start(cd.initial);
-    const Scalar H0 = c.scene.energy(traj);
+    const Scalar H0 = c.scene.energy(traj), mu0 = c.scene.momentum_map(traj);
     const auto pi0 = c.scene.spatial_momentum(traj);
-    double dH = 0, dpi = 0;
+    double dH = 0, dmu = 0, dpi = 0;
     for (long k = 0; k < n; ++k) {
-      REQUIRE(st.step(traj, Scalar(0.02)).ok());
-      REQUIRE(sd.step(trajd, 0.02).ok());
+      REQUIRE(st.step(traj, static_cast<Scalar>(h)).ok());
+      REQUIRE(sd.step(trajd, h).ok());
       using std::abs;
       dH = std::max(dH, static_cast<double>(abs(c.scene.energy(traj) - H0) / abs(H0)));
+      dmu = std::max(dmu, static_cast<double>(abs(c.scene.momentum_map(traj) - mu0) / pi0.norm()));
       dpi = std::max(dpi, static_cast<double>((c.scene.spatial_momentum(traj) - pi0).norm() / pi0.norm()));
     }
     const double eps = static_cast<double>(std::numeric_limits<Scalar>::epsilon());
+    const double bound = 16 * std::sqrt(double(n)) * eps;
     const double dW = (traj.omega.template cast<double>() - trajd.omega).norm() / trajd.omega.norm();
     const Keeps kept = keeps<SceneT>(S{});
-    INFO("scheme " << Entry::name << ", eps " << eps << ": max |dH/H| " << dH << ", |dpi|/|pi| " << dpi
-                   << ", |Omega - Omega_double|/|Omega| " << dW);
-    if (kept.energy) CHECK(dH <= 64 * std::sqrt(double(n)) * eps);
-    if (kept.spatial_momentum) CHECK(dpi <= 64 * std::sqrt(double(n)) * eps);
+    INFO("scheme " << Entry::name << " on " << c.name << ", eps " << eps << ": max |dH/H| " << dH << ", |dmu|/|pi| "
+                   << dmu << ", |dpi|/|pi| " << dpi << " (bound " << bound << "), |Omega - Omega_double|/|Omega| " << dW);
+    if (kept.energy) CHECK(dH <= bound);
+    if (kept.momentum_map) CHECK(dmu <= bound);
+    if (kept.spatial_momentum) CHECK(dpi <= bound);
     CHECK(dW <= tol);
   }
 }
@@ -262,13 +297,15 @@ void check_scalar(double tol) {
 
 TEMPLATE_LIST_TEST_CASE("registry: float and long double keep what the scheme keeps to their own epsilon and follow the double run",
                         "[properties][scalar]", Entries) {
-  check_scalar<TestType, float>(1e-3);
-  check_scalar<TestType, long double>(1e-10);
+  check_scalar<TestType, float>(cases::ht1<float>(), cases::ht1<double>(), 1e-3, 1e-3);
+  check_scalar<TestType, float>(cases::fb1<float>(), cases::fb1<double>(), 0.02, 1e-3);
+  check_scalar<TestType, long double>(cases::ht1<long double>(), cases::ht1<double>(), 1e-3, 1e-11);
+  check_scalar<TestType, long double>(cases::fb1<long double>(), cases::fb1<double>(), 0.02, 1e-11);
 }
 
 TEMPLATE_LIST_TEST_CASE("registry: no heap allocation in a step (plain, composed, processed; HT1 and FB1)",
                         "[properties][no_alloc]", Entries) {
-  auto check_on = [](const auto& c, double h) {
+  auto check_on = []([[maybe_unused]] const auto& c, [[maybe_unused]] double h) {
     using SceneT = typename std::decay_t<decltype(c)>::SceneT;
     if constexpr (TestType::template steps<SceneT>) {
       for_each_stepper<TestType>(c.scene, [&](const auto& st, int, const char* label) {

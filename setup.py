@@ -1,5 +1,5 @@
 """Builds the Python module trompo for `pip install .` (pyproject.toml): the extension
-trompo._trompo from python/trompo_module.cpp (header-only C++20: Eigen 3.4, and Boost.Math
+trompo._trompo from python/trompo_module.cpp and the CLI's engine tools/simulate/simulate_core.cpp (header-only C++20: Eigen 3.4, and Boost.Math
 for the closed forms when its headers are found), and python/trompo/__init__.py with the
 interpreter it was built for filled in (as CMake's configure_file does)."""
 import os
@@ -25,11 +25,14 @@ if os.path.isfile("/usr/include/boost/math/special_functions/ellint_rf.hpp"):
 
 ext = Pybind11Extension(
     "trompo._trompo",
-    [os.path.join("python", "trompo_module.cpp")],
+    # the module and the CLI's engine (tools/simulate/simulate_core.cpp), as CMake builds it
+    [os.path.join("python", "trompo_module.cpp"), os.path.join("tools", "simulate", "simulate_core.cpp")],
     include_dirs=[os.path.join(HERE, "include"), os.path.join(HERE, "tools"), eigen],
     define_macros=macros,
     cxx_std=20,
-    extra_compile_args=["-O2"],
+    # TROMPO_CXXFLAGS replaces the optimisation flags (the test command's pip-install check
+    # builds with -O0: it checks that the package builds, imports and runs, not its speed)
+    extra_compile_args=os.environ.get("TROMPO_CXXFLAGS", "-O2").split(),
 )
 
 

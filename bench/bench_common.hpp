@@ -27,13 +27,11 @@
 #include <vector>
 
 #include "trompo/drivers/integrate.hpp"
+#include "data/reference_cases.hpp"  // tests/data: the project's one reference set
 #include "trompo/model/cases.hpp"
+#include "trompo/schemes/registry.hpp"
 #include "trompo/steppers/composition.hpp"
 #include "trompo/steppers/processed_composition.hpp"
-#include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
-#include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
-#include "trompo/schemes/explicit/rk4.hpp"
-#include "trompo/schemes/simo/simo.hpp"
 #include "trompo/steppers/stepper.hpp"
 
 // The closed forms use Boost.Math's Carlson integrals, so they need Boost too.
@@ -64,37 +62,19 @@ struct Reference {
   std::string check;  ///< how the reference was cross-checked, with the distance found
 };
 
-/// The published solutions at each case's end time (docs/theory.md §8):
-/// closed forms at 40 digits (HT0, HT1, FB1), RKF7(8) in 128-bit floats (HT2); printed
-/// with 17 significant digits, i.e. exact to double precision.
-struct Published {
-  double t;
-  double R[9];
-  double w[3];
-};
-inline const Published published_ht0 = {10.0,
-                                 {0.44138808956316702, 0.84854595362565453, -0.29179842182113701,
-                                  -0.35797409062881863, -0.13167591265389697, -0.92440034858562967,
-                                  -0.82281899882674561, 0.51247557855208266, 0.24563728657811735},
-                                 {-5.4491719004681583, 5.099384179984398, 50.0}};
-inline const Published published_ht1 = {10.0,
-                                 {-0.88035320824679323, 0.47197116595071544, -0.047132231441981876,
-                                  -0.47343918466276825, -0.88042026680667489, 0.026748686358709885,
-                                  -0.028871563092973333, 0.04586253707750627, 0.99853045048079672},
-                                 {-0.030618399441827205, 0.028652974173320288, 50.0}};
-inline const Published published_ht2 = {2.0,
-                                 {-0.48744908223626571, -0.15041682274564176, 0.86009776866477712,
-                                  -0.53793974384415059, -0.72416559163689565, -0.43151480609832443,
-                                  0.68776029561171377, -0.6730222695604441, 0.27207866593284563},
-                                 {0.12223321949739424, 150.0, -5.8556245892054577}};
-inline const Published published_fb1 = {100.0,
-                                 {-0.49160457441821394, -0.010697307057550467, -0.87075284095591858,
-                                  0.010572869065672174, -0.99992416458075367, 0.0063150239272708358,
-                                  -0.87075436079919055, -0.0061018611257821765, 0.49168039460608429},
-                                 {0.011252799694530839, -1.9999933436136818, 0.010434326379235562}};
+/// The published solutions at each case's end time (docs/theory.md §8), rows of the
+/// project's one reference set (tests/data/reference_cases.hpp): closed forms at 40 digits
+/// (HT0, HT1, FB1), RKF7(8) in 128-bit floats (HT2), exact to double precision.
+inline const double* const published_ht0 = trompo_test::reference::ht0[20];  // t = 10
+inline const double* const published_ht1 = trompo_test::reference::ht1[20];  // t = 10
+inline const double* const published_ht2 = trompo_test::reference::ht2[1];   // t = 2
+inline const double* const published_fb1 = trompo_test::reference::fb1[20];  // t = 100
 
-inline Reference from_published(const Published& p, const std::string& source) {
-  return {Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p.R), V3(p.w[0], p.w[1], p.w[2]), source, ""};
+/// A row of the reference set as a Reference.
+inline Reference from_published(const double* row, const std::string& source) {
+  using trompo_test::reference::omega_of, trompo_test::reference::rotation_of;
+  return {Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(rotation_of(row)),
+          V3(omega_of(row)[0], omega_of(row)[1], omega_of(row)[2]), source, ""};
 }
 
 /// ‖ΔΛ‖_F + ‖ΔΩ‖/‖Ω‖ between two references.

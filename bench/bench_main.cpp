@@ -19,8 +19,8 @@
 //                                A configuration whose step fails is reported as an error.
 //
 // Every benchmark's label is "key=value;…" (case, method, scheme, order, h, tol, stages)
-// for scripts/report/ (python3 -m report). Methods: simo-alpha (½), simo-collocation, simo-kappa,
-// geradin-bauchau, geradin-bauchau-paper, each at order 2; the three energy-exact ones
+// for scripts/report/ (python3 -m report). Methods: every registered scheme the tools compose
+// (include/trompo/schemes/registry.hpp: the Simo and Géradin–Bauchau schemes), each at order 2; the three energy-exact ones
 // composed (ComposedStepper) to order 4 by the triple jump (-o4) and by Suzuki's five
 // steps (-o4s), and to order 6 by Kahan–Li (-o6); our RK4; and, when Boost is found,
 // odeint's runge_kutta4 and runge_kutta_dopri5 on the quaternion ODE.
@@ -41,13 +41,22 @@ namespace {
 using namespace trompo;
 using namespace trompo_bench;
 
+/// Calls f(Scheme{}) for every registered scheme (include/trompo/schemes/registry.hpp) that
+/// the tools compose (Compositions::symmetric: the implicit schemes and any added one) and
+/// that steps SceneT; RK4, splitting and the families have benchmarks of their own
+/// (below, bench/methods/).
+template <class SceneT, class F>
+void for_each_registered(F&& f) {
+  RegisteredSchemes::for_each([&](auto entry) {
+    using Entry = typename decltype(entry)::type;
+    if constexpr (Entry::compositions == Compositions::symmetric && Entry::template steps<SceneT>)
+      f(typename Entry::Scheme{});
+  });
+}
+
 template <class SceneT>
 void register_sweeps(const Problem<SceneT>& p) {
-  register_sweep(p, SimoAlpha{}, Composition::base, p.o2);
-  register_sweep(p, GeradinBauchauPaper{}, Composition::base, p.o2);
-  register_sweep(p, SimoKappa{}, Composition::base, p.o2);
-  register_sweep(p, SimoCollocation{}, Composition::base, p.o2);
-  register_sweep(p, GeradinBauchau{}, Composition::base, p.o2);
+  for_each_registered<SceneT>([&](auto scheme) { register_sweep(p, scheme, Composition::base, p.o2); });
   for (Composition m : {Composition::triple_jump, Composition::suzuki5, Composition::kahan_li9}) {
     const Grid& g = m == Composition::triple_jump ? p.o4 : m == Composition::suzuki5 ? p.o4s : p.o6;
     register_sweep(p, SimoKappa{}, m, g);
@@ -91,10 +100,9 @@ void register_steps(const Problem<SceneT>& p) {
     st.SetLabel(label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, p.h_step));
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
 #endif
-  register_step(p, SimoAlpha{}, 2);
-  register_step(p, SimoCollocation{}, 2);
-  register_step(p, GeradinBauchau{}, 2);
-  register_step(p, GeradinBauchauPaper{}, 2);
+  for_each_registered<SceneT>([&]([[maybe_unused]] auto scheme) {
+    if constexpr (!std::is_same_v<decltype(scheme), SimoKappa>) register_step(p, scheme, 2);  // Simo-κ: above
+  });
   for (Composition m : {Composition::triple_jump, Composition::suzuki5, Composition::kahan_li9}) {
     register_step(p, SimoKappa{}, m);
     register_step(p, SimoCollocation{}, m);
@@ -158,11 +166,7 @@ int energy_series(const std::string& path) {
     const ComposedStepper<Scheme, Top> stepper(scheme, c.scene, order);
     fixed_step(method_name(Scheme::name, order), [&](State<double>& s) { return stepper.step(s, h).ok(); });
   };
-  trompo_series(SimoAlpha{}, 2);
-  trompo_series(SimoKappa{}, 2);
-  trompo_series(SimoCollocation{}, 2);
-  trompo_series(GeradinBauchau{}, 2);
-  trompo_series(GeradinBauchauPaper{}, 2);
+  for_each_registered<Top>([&](auto scheme) { trompo_series(scheme, 2); });
   trompo_series(SimoKappa{}, 4);
   trompo_series(SimoKappa{}, 6);
   {

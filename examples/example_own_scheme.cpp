@@ -12,48 +12,12 @@
 
 #include <trompo/trompo.hpp>
 
+#include "own_scheme.hpp"  // struct Midpoint: the README example
+
 using namespace trompo;
+using example::Midpoint;
 
-// ---- the README example starts here ----
-struct Midpoint {  // the implicit midpoint rule on (q, Ω), free body
-  static constexpr const char* name = "my-midpoint";
-  static constexpr SchemeTraits traits{                    // its properties, checked by the compiler
-      .order = 2,
-      .symmetric = true,                                      // Φ_{−h} = Φ_h⁻¹: may be composed
-      .keeps = [](SceneKind s) { return Keeps{.energy = s.is_free}; },  // H on the free body
-      .memory = MemoryUse::carried};                          // it has a Memory, part of the trajectory
-  template <class Scene> struct Memory { long steps = 0; };  // what it carries between steps
-
-  template <class Scene>
-  StepReport<double> step(const Scene& scene, const State<double>& in, double h, const NewtonOptions<double>&,
-                          State<double>& out, Memory<Scene>& memory) const {
-    const Eigen::Vector4d q0 = in.rotation.unit_quaternion().coeffs();
-    Eigen::Vector4d q = q0;
-    Eigen::Vector3d w = in.omega;
-    StepReport<double> report;
-    report.status = StepStatus::not_converged;
-    for (report.iterations = 1; report.iterations <= 50; ++report.iterations) {  // fixed point
-      const Eigen::Vector3d wm = (in.omega + w) / 2;                             // Ω_m
-      const Eigen::Quaterniond qm(Eigen::Vector4d((q0 + q) / 2));               // q_m
-      const Eigen::Vector4d q_new = q0 + h / 2 * (qm * Eigen::Quaterniond(0, wm.x(), wm.y(), wm.z())).coeffs();
-      const Eigen::Vector3d w_new = in.omega + h * scene.body().inertia_inverse() * scene.momentum(wm).cross(wm);
-      const double change = (q_new - q).norm() + (w_new - w).norm();
-      q = q_new;
-      w = w_new;
-      if (!(change < 1e3)) break;  // diverging (or NaN): report the failure
-      if (change <= 1e-15 * (1 + in.omega.norm())) { report.status = StepStatus::ok; break; }
-    }
-    if (!report.ok()) return report;  // the Stepper leaves state and memory untouched
-    out.rotation = SO3d::renormalized(Eigen::Quaterniond(q));
-    out.omega = w;
-    out.time = in.time + h;
-    ++memory.steps;
-    return report;
-  }
-};
-static_assert(SchemeFor<Midpoint, FreeScene<double>>);
-
-int main() {
+int main() {  // ---- the README example: own_scheme.hpp, then these lines ----
   const auto fb1 = cases::fb1<double>();
   Stepper<Midpoint, FreeScene<double>> stepper(Midpoint{}, fb1.scene);
   auto trajectory = stepper.start(fb1.initial);  // a State plus Midpoint's memory

@@ -189,39 +189,13 @@ std::string exercise(const St& st, trompo::State<double> s, Reader& in, bool wil
   return {};
 }
 
-// ---- splitting (schemes/splitting.hpp) --------------------------------------------------
-/// The splitting carries its working frame as per-trajectory memory; exercise() steps a
-/// plain State, so this stepper keeps the memory of the one trajectory it is given.
-template <class Scheme, class Scene>
-struct TrajectoryStepper : trompo::Stepper<Scheme, Scene> {
-  using trompo::Stepper<Scheme, Scene>::Stepper;
-  mutable typename trompo::Stepper<Scheme, Scene>::Memory memory{};
-  trompo::StepReport<double> step(trompo::State<double>& s, double h) const {
-    return trompo::Stepper<Scheme, Scene>::step(s, memory, h);
-  }
-};
-
-template <class Scene>
-std::string with_splitting(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
-  using namespace trompo;
-  // every method, the near-integrable ones [F8] included
-  const auto method = all_splitting_methods[in.choose(static_cast<unsigned>(std::size(all_splitting_methods)))];
-  if (in.byte() & 1) return exercise(TrajectoryStepper<Splitting, Scene>(Splitting(method), scene), s, in, wild);
-  if constexpr (detail::splitting_effects_of<Scene>::conservative)
-    return exercise(TrajectoryStepper<SplittingProjected, Scene>(SplittingProjected(method), scene), s, in, wild);
-  else
-    return exercise(TrajectoryStepper<Splitting, Scene>(Splitting(method), scene), s, in, wild);
-}
-// ---- end splitting --------------------------------------------------------------------------
-
-// ---- processed composition (processed_composition.hpp) --------------------------------------
-/// ProcessedStepper steps a Trajectory (its kernel state lives in the memory); exercise()
-/// steps a plain State, so this stepper carries the trajectory of the states it produced and
-/// starts a fresh one for any other state. integrate() gets the real Trajectory (start()) and
-/// so exercises the deferred output.
-template <class Scheme, class Scene>
-struct ProcessedStateStepper : trompo::ProcessedStepper<Scheme, Scene> {
-  using Base = trompo::ProcessedStepper<Scheme, Scene>;
+// ---- the registered schemes (include/trompo/schemes/registry.hpp) ------------------------
+/// exercise() steps a plain State; a scheme with memory, a ComposedStepper of one and a
+/// ProcessedStepper step a Trajectory. This stepper carries the trajectory of the states it
+/// produced and starts a fresh one (fresh memory) for any other state; integrate() gets the
+/// real Trajectory (start()), and so exercises a ProcessedStepper's deferred output.
+template <class Base>
+struct StateStepper : Base {
   using Base::Base;
   using Base::step;
   mutable typename Base::TrajectoryType traj{};
@@ -232,29 +206,68 @@ struct ProcessedStateStepper : trompo::ProcessedStepper<Scheme, Scene> {
     return rep;
   }
 };
-// ---- end processed composition --------------------------------------------------------------
 
+/// A scheme's parameters drawn from the input: the defaults unless the scheme has
+/// parameters, whose overload stands here.
+template <class S>
+S draw_scheme(std::type_identity<S>, Reader&, bool) {
+  return S{};
+}
+inline trompo::SimoAlpha draw_scheme(std::type_identity<trompo::SimoAlpha>, Reader& in, bool wild) {
+  if (in.byte() & 1) return trompo::SimoAlpha{};
+  return trompo::SimoAlpha(wild ? in.raw() : in.unit());
+}
+inline trompo::LieGenAlpha draw_scheme(std::type_identity<trompo::LieGenAlpha>, Reader& in, bool wild) {
+  return trompo::LieGenAlpha(wild ? in.raw() : in.unit());
+}
+inline trompo::EnergyDecaying draw_scheme(std::type_identity<trompo::EnergyDecaying>, Reader& in, bool wild) {
+  const double chi = in.byte() & 1 ? 0.0 : wild ? in.raw() : in.unit();
+  return trompo::EnergyDecaying(chi, in.byte() & 1 ? trompo::ChiSchedule::sensor : trompo::ChiSchedule::constant);
+}
+inline trompo::Splitting draw_scheme(std::type_identity<trompo::Splitting>, Reader& in, bool) {
+  // every method, the near-integrable ones [F8] included
+  using trompo::all_splitting_methods;
+  return trompo::Splitting(all_splitting_methods[in.choose(static_cast<unsigned>(std::size(all_splitting_methods)))]);
+}
+
+/// Registry entry Entry on `scene`: plain, or (where the registry lets the tools compose it)
+/// a ComposedStepper of a drawn composition or the ProcessedStepper; splitting also with
+/// the energy projection on conservative scenes.
+template <class Entry, class Scene>
+std::string with_entry(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild,
+                       const trompo::NewtonOptions<double>& opt) {
+  using namespace trompo;
+  using S = typename Entry::Scheme;
+  const S scheme = draw_scheme(std::type_identity<S>{}, in, wild);
+  const unsigned how = in.choose(4);
+  if constexpr (Entry::compositions == Compositions::symmetric) {
+    if (how == 1) {
+      const auto method = static_cast<Composition>(in.choose(6));
+      return exercise(StateStepper<ComposedStepper<S, Scene>>(scheme, scene, method, opt), s, in, wild);
+    }
+    if (how == 2) return exercise(StateStepper<ProcessedStepper<S, Scene>>(scheme, scene, opt), s, in, wild);
+  }
+  if constexpr (std::is_same_v<S, Splitting> && detail::splitting_effects_of<Scene>::conservative) {
+    if (how == 1) return exercise(StateStepper<Stepper<SplittingProjected, Scene>>(SplittingProjected(scheme.method), scene, opt), s, in, wild);
+  }
+  return exercise(StateStepper<Stepper<S, Scene>>(scheme, scene, opt), s, in, wild);
+}
+
+/// One registered scheme that steps Scene, drawn from the input.
 template <class Scene>
 std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
   using namespace trompo;
   NewtonOptions<double> opt;
   if (in.byte() == 3) opt.max_iterations = static_cast<int>(in.choose(4));  // starved Newton
-  switch (in.choose(9)) {
-    case 0: return exercise(Stepper<SimoAlpha, Scene>(SimoAlpha{}, scene, opt), s, in, wild);
-    case 1: {
-      const double a = wild ? in.raw() : in.unit();
-      return exercise(Stepper<SimoAlpha, Scene>(SimoAlpha(a), scene, opt), s, in, wild);
-    }
-    case 2: return exercise(Stepper<SimoCollocation, Scene>(SimoCollocation{}, scene, opt), s, in, wild);
-    case 3: return exercise(Stepper<SimoKappa, Scene>(SimoKappa{}, scene, opt), s, in, wild);
-    case 4: return exercise(Stepper<GeradinBauchau, Scene>(GeradinBauchau{}, scene, opt), s, in, wild);
-    case 5: return exercise(Stepper<GeradinBauchauPaper, Scene>(GeradinBauchauPaper{}, scene, opt), s, in, wild);
-    case 6: return exercise(Stepper<RK4, Scene>(RK4{}, scene, opt), s, in, wild);
-    case 7:  // the processed composition of Simo-κ or Géradin–Bauchau
-      if (in.byte() & 1) return exercise(ProcessedStateStepper<SimoKappa, Scene>(SimoKappa{}, scene, opt), s, in, wild);
-      return exercise(ProcessedStateStepper<GeradinBauchau, Scene>(GeradinBauchau{}, scene, opt), s, in, wild);
-    default: return with_splitting(scene, s, in, wild);  // splitting
-  }
+  const unsigned pick = in.choose(static_cast<unsigned>(RegisteredSchemes::size));
+  unsigned k = 0;
+  std::string broken;
+  RegisteredSchemes::for_each([&](auto entry) {
+    using Entry = typename decltype(entry)::type;
+    if (k++ != pick) return;
+    if constexpr (Entry::template steps<Scene>) broken = with_entry<Entry>(scene, s, in, wild, opt);
+  });
+  return broken;
 }
 
 /// Checks the contract on one input; returns "" when it holds, else what broke.

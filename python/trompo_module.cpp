@@ -210,6 +210,6 @@ PYBIND11_MODULE(_trompo, m) {
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
         py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
-  m.def("usage", [] { return std::string(kUsage); }, "trompo-simulate --help");
+  m.def("usage", &usage, "trompo-simulate --help");
   m.attr("__version__") = TROMPO_VERSION;
 }

@@ -8,7 +8,7 @@
 //  - tiny increments, |Θ| from 1e-4 down to exactly 0 (a top at rest upright, hanging);
 //  - the sleeping top (ρ = 0 in [T2]); HT2; FB1;
 //  - inertia ratios J3/J1 = 1e-3 and 1e3, the disk limit J1 + J2 = J3;
-//  - backward integration; float and long double with tolerances scaled to their ε.
+//  - (backward integration, float and long double: tests/test_scheme_properties.cpp).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -23,8 +23,6 @@ using namespace trompo;
 
 namespace {
 
-template <class Scalar>
-using V3 = Eigen::Matrix<Scalar, 3, 1>;
 using Vec3 = Eigen::Vector3d;
 
 // Which invariants a scheme keeps to round-off on the heavy top: the scheme's own traits
@@ -374,68 +372,6 @@ TEMPLATE_TEST_CASE("inertia ratios 1e-3 and 1e3, and the disk limit J1 + J2 = J3
   }
 }
 
-// ---- backward integration -------------------------------------------------------------------------
-
-TEMPLATE_TEST_CASE("backward integration returns to the start (symmetric schemes)", "[hard][backward]", SimoAlpha,
-                   SimoCollocation, SimoKappa, GeradinBauchau, GeradinBauchauPaper) {
-  const auto c = cases::ht1<double>();
-  const Stepper<TestType, cases::Top<double>> st(TestType{}, c.scene);
-  State<double> s = c.initial;
-  Drift<cases::Top<double>> drift(c.scene, s);
-  const auto fwd = integrate(st, s, 1.0, 1e-3, [&](const State<double>& x) { drift(x); });
-  REQUIRE(fwd.ok());
-  const auto back = integrate(st, s, 0.0, -1e-3, [&](const State<double>& x) { drift(x); });
-  REQUIRE(back.ok());
-  CHECK(s.time == 0.0);
-  CHECK((s.omega - c.initial.omega).norm() <= 1e-10 * c.initial.omega.norm());
-  CHECK((s.rotation.inverse() * c.initial.rotation).log().norm() <= 1e-10);
-  check_invariants<TestType>(drift, 1e-13);
-}
-
-// ---- float and long double ------------------------------------------------------------------------
-
-namespace {
-
-template <class Scheme, class Scalar>
-void precision_run(double tol_in_eps) {
-  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  CAPTURE(Scheme::name, sizeof(Scalar), tol_in_eps);
-  {
-    const auto c = cases::ht1<Scalar>();
-    const Stepper<Scheme, cases::Top<Scalar>> st(Scheme{}, c.scene);
-    State<Scalar> s = c.initial;
-    Drift<cases::Top<Scalar>> drift(c.scene, s);
-    for (int i = 0; i < 2000; ++i) {
-      REQUIRE(st.step(s, Scalar(1e-3L)).ok());
-      drift(s);
-    }
-    REQUIRE(finite(s));
-    const double tol = tol_in_eps * static_cast<double>(eps);
-    check_invariants<Scheme>(drift, tol);
-    const auto R = s.rotation.matrix();
-    CHECK(static_cast<double>((R.transpose() * R - decltype(R)::Identity()).norm()) <= 8 * static_cast<double>(eps));
-  }
-  {
-    const auto c = cases::fb1<Scalar>();
-    const Stepper<Scheme, cases::Free<Scalar>> st(Scheme{}, c.scene);
-    State<Scalar> s = c.initial;
-    Drift<cases::Free<Scalar>> drift(c.scene, s);
-    for (int i = 0; i < 2000; ++i) {
-      REQUIRE(st.step(s, Scalar(1e-2L)).ok());
-      drift(s);
-    }
-    REQUIRE(finite(s));
-    CHECK(drift.max_dH <= tol_in_eps * static_cast<double>(eps));
-    CHECK(drift.max_dpi <= tol_in_eps * static_cast<double>(eps));
-  }
-}
-
-}  // namespace
-
-TEMPLATE_TEST_CASE("float and long double keep the invariants to their own epsilon", "[hard][precision]", SimoKappa,
-                   SimoCollocation, GeradinBauchau) {
-  // 2000 steps: measured at most 26 ε in every precision (a √N walk of ~0.5 ε a step).
-  precision_run<TestType, float>(100);
-  precision_run<TestType, double>(100);
-  precision_run<TestType, long double>(100);
-}
+// Backward integration (h < 0, forward and back), float and long double: the generic
+// property suite over the registry (test_scheme_properties.cpp) checks them for every
+// scheme and its compositions.

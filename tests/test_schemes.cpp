@@ -314,34 +314,9 @@ TEMPLATE_TEST_CASE("Observed order: Lambda and Omega vs closed-form reference in
 }
 
 // =====================================================================================
-TEMPLATE_TEST_CASE("Symmetry: a step of h then -h returns to the start, |dLambda| <= 1e-14 and |dOmega|/|Omega| <= 1e-13",
-                   "[symmetry]", SimoAlpha, SimoCollocation, SimoKappa, GeradinBauchau, GeradinBauchauPaper) {
-  for_each_case([](const auto& c, const CaseRun& r) {
-    Stepper<TestType, typename std::decay_t<decltype(c)>::SceneT> stepper(TestType{}, c.scene);
-    // Every scheme listed says it is symmetric (its trait); this checks that it is.
-    STATIC_REQUIRE(TestType::traits.symmetric);
-    REQUIRE(stepper.symmetric());
-    State<double> s = c.initial;
-    double worst_L = 0, worst_W = 0;
-    for (int k = 0; k < 50; ++k) {
-      // Probe every 20th state along the run, with the run's h and with 10 h.
-      for (double h : {r.h, 10 * r.h}) {
-        State<double> t = s;
-        REQUIRE(stepper.step(t, h).ok());
-        REQUIRE(stepper.step(t, -h).ok());
-        worst_L = std::max(worst_L, trompo_test::max_abs(t.rotation.matrix() - s.rotation.matrix()));
-        worst_W = std::max(worst_W, (t.omega - s.omega).norm() / s.omega.norm());
-        CHECK(std::abs(t.time - s.time) <= 1e-15 * std::max(1.0, s.time));
-      }
-      s = trompo_test::advance(stepper, s, r.h, 20);
-    }
-    INFO(TestType::name << " on " << r.name << ": worst |Lambda back - Lambda|_max = " << worst_L << ", |Omega back - Omega|/|Omega| = " << worst_W);
-    SHOW(TestType::name << " " << r.name << " h,-h: dLambda " << worst_L << ", dOmega " << worst_W);
-    CHECK(worst_L <= 1e-14);
-    CHECK(worst_W <= 1e-13);
-  });
-}
-
+// Symmetry (h then −h), reversibility (forward and back), float and long double: the
+// generic property suite over the registry (test_scheme_properties.cpp) checks them for
+// every scheme and its compositions; here stays the check that symmetry is a real property.
 TEST_CASE("Symmetry is a real check: Simo-alpha 0.3 does not return after h, -h (|dLambda| > 1e-9 on HT1)", "[symmetry]") {
   const auto c = cases::ht1<double>();
   Stepper<SimoAlpha, cases::Top<double>> stepper(SimoAlpha(0.3), c.scene);
@@ -352,23 +327,6 @@ TEST_CASE("Symmetry is a real check: Simo-alpha 0.3 does not return after h, -h 
   const double back = trompo_test::max_abs(t.rotation.matrix() - c.initial.rotation.matrix()) + (t.omega - c.initial.omega).norm() / 50;
   INFO("simo-alpha 0.3, h = 0.01 then -0.01: departure " << back);
   CHECK(back > 1e-9);
-}
-
-TEMPLATE_TEST_CASE("Reversibility: HT1 integrated to t = 1 and back (h = -0.005) returns to Lambda0, Omega0 within 1e-12",
-                   "[symmetry]", SimoAlpha, SimoCollocation, SimoKappa, GeradinBauchau, GeradinBauchauPaper) {
-  const auto c = cases::ht1<double>();
-  Stepper<TestType, cases::Top<double>> stepper(TestType{}, c.scene);
-  long failures = 0;
-  const State<double> there = trompo_test::advance(stepper, c.initial, 0.005, 200, &failures);
-  const State<double> back = trompo_test::advance(stepper, there, -0.005, 200, &failures);
-  REQUIRE(failures == 0);
-  const double eL = trompo_test::max_abs(back.rotation.matrix() - c.initial.rotation.matrix());
-  const double eW = (back.omega - c.initial.omega).norm() / c.initial.omega.norm();
-  INFO(TestType::name << ": after 200 steps forward and 200 back, |dLambda|_max = " << eL << ", |dOmega|/|Omega| = " << eW
-                      << ", |t| = " << back.time);
-  CHECK(eL <= 1e-12);
-  CHECK(eW <= 1e-12);
-  CHECK(std::abs(back.time) <= 1e-13);
 }
 
 // =====================================================================================
@@ -466,32 +424,4 @@ TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gam
   CHECK(max_dH <= 1e-12);
   if constexpr (!std::is_same_v<TestType, SimoCollocation>) CHECK(recovered == 0);
   else CHECK(recovered <= 5);  // rare: 1 interval in 10⁴ measured
-}
-
-TEMPLATE_TEST_CASE("float and long double: exact schemes keep H, mu (HT1) and H, pi (FB1) within 8 sqrt(N) eps over N = 2000 steps",
-                   "[invariants][scalar]", float, long double) {
-  using S = TestType;
-  const long N = 2000;  // long double runs on the x87 unit: kept short for the sanitizer build
-  const double bound = 8 * std::sqrt(double(N)) * static_cast<double>(std::numeric_limits<S>::epsilon());
-  auto go = [&](auto scheme, const char* name) {
-    using Scheme = decltype(scheme);
-    const auto top = cases::ht1<S>();
-    Stepper<Scheme, cases::Top<S>> st(scheme, top.scene);
-    const RunStats<S> a = trompo_test::run(st, top.initial, S(1e-3L), N);
-    const auto fb = cases::fb1<S>();
-    Stepper<Scheme, cases::Free<S>> sf(scheme, fb.scene);
-    const RunStats<S> b = trompo_test::run(sf, fb.initial, S(1e-2L), N);
-    INFO(name << " (" << sizeof(S) << "-byte Scalar): HT1 max|dH/H| " << a.max_dH << ", max|dmu/mu| " << a.max_dmu << "; FB1 max|dH/H| "
-              << b.max_dH << ", max|dpi|/|pi| " << b.max_dpi << "; bound " << bound << "; orthonormality " << a.max_orth);
-    REQUIRE(a.failures == 0);
-    REQUIRE(b.failures == 0);
-    CHECK(a.max_dH <= bound);
-    CHECK(a.max_dmu <= bound);
-    CHECK(b.max_dH <= bound);
-    CHECK(b.max_dpi <= bound);
-    CHECK(a.max_orth <= 16 * static_cast<double>(std::numeric_limits<S>::epsilon()));
-  };
-  go(SimoCollocation{}, "simo-collocation");
-  go(SimoKappa{}, "simo-kappa");
-  go(GeradinBauchau{}, "geradin-bauchau");
 }

@@ -9,6 +9,7 @@
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
 #include "trompo/schemes/implicit_step.hpp"
+#include "trompo/schemes/registry.hpp"
 #include "trompo/schemes/scheme.hpp"
 #include "trompo/schemes/simo/simo.hpp"
 #include "trompo/schemes/splitting/splitting.hpp"

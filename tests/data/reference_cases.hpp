@@ -1,14 +1,19 @@
 #pragma once
 // Reference solutions of the standard cases HT0, HT1, FB1, FB2 (docs/theory.md §8): closed
 // forms evaluated with 40 significant digits, printed with 17 (exact to double precision),
-// computed independently of trompo/exact and copied here verbatim. The tests read nothing
-// outside the repository.
+// computed independently of trompo/exact and copied here verbatim; and HT2's published
+// solution at t = 0.5 and 2. The one copy of the reference set: the tests
+// (tests/support/trompo_test.hpp), the bench (bench/bench_common.hpp) and trompo-invariants
+// read it from here, and nothing outside the repository.
 //
 // Inputs (exact decimals):
 //   HT0: J = diag(5, 5, 1), Mgl = 196.2, E = γ = e3, Λ0 = exp(0.3 ê1),  Ω0 = (0, 0, 50), t = 0, 0.5, …, 10
 //   HT1: J = diag(5, 5, 1), Mgl = 20,    E = γ = e3, Λ0 = exp(0.05 ê1), Ω0 = (0, 0, 50), t = 0, 0.5, …, 10
 //   FB1: J = diag(1, 2, 3), Λ0 = I, Ω0 = (0.01, 2, 0.01), t = 0, 5, …, 100
 //   FB2: J = diag(2, 1, 2/3), Λ0 = I, Π0 = JΩ0 = (cos 1.1, 0, sin 1.1), t = 0, 5, …, 100
+//   HT2: the fast asymmetric top of Brüls–Cardona, J = diag(15.234375, 0.46875, 15.234375) about the
+//        fixed point (docs/theory.md §8), t = 0.5, 2:
+//        Runge–Kutta–Fehlberg 7(8) in 128-bit floats, tol 1e-26 (25 digits kept)
 // Columns: t, R00..R22 (Λ row-major, body → space), Omega1..3, H, momentum_map (γ·ΛJΩ, γ = e3)
 // and, for the free bodies, m1..m3 (spatial momentum ΛJΩ).
 
@@ -114,4 +119,22 @@ inline constexpr double fb2[21][18] = {
     {100.0, 0.71082410947467991, -0.66094737877924985, 0.24057773769483969, 0.42455824710298773, 0.67587923549407991, 0.60244298804515642, -0.56078461124246863, -0.32609173787874003, 0.76104191624433961, -0.08867415693748698, -0.59041852433342717, 1.1810569286878996, 0.64712527931383643, 0.89120736006143534, 0.45359612142557739, 0, 0.89120736006143534},
 };
 
+// HT2 (the Brüls–Cardona fast top): t, R00..R22, Omega1..3, H, momentum_map.
+inline constexpr double ht2[2][15] = {
+    {0.5, 0.6652792324396802769416861, -0.7024682970565855893377819, 0.2528672270478926411227961,
+     -0.3746628825214054909186725, -0.02116518470192332658080078, 0.9269194999660353346088347,
+     -0.6457795810841508557644241, -0.7114002576517344055469526, -0.2772695548880629151643786,
+     -0.4710531017452488429701368, 150, 5.901083048326457027851916, 5435.696790865546875, -70.3124296875},
+    {2.0, -0.4874490822362657103411952, -0.150416822745641759810031, 0.8600977686647771186846382,
+     -0.5379397438441505933085278, -0.7241655916368956507485545, -0.4315148060983244312796754,
+     0.6877602956117137709979562, -0.6730222695604440960502209, 0.2720786659328456273933256,
+     0.12223321949739424, 150.0, -5.8556245892054577, 5435.696790865546875, -70.3124296875},
+};
+
+/// Λ (row-major) of a row of any table above.
+inline constexpr const double* rotation_of(const double* row) { return row + 1; }
+/// Ω of a row of any table above.
+inline constexpr const double* omega_of(const double* row) { return row + 10; }
+
 }  // namespace trompo_test::reference
+

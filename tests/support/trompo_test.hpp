@@ -1,7 +1,8 @@
 #pragma once
 // Shared helpers of the trompo test suite: a portable seeded RNG, runs that record the
-// invariants, error measures, independent reference solutions (copied from the project's
-// reference set, docs/theory.md §8) and finite-difference Jacobians.
+// invariants, error measures, independent reference solutions (rows of the project's
+// reference set, tests/data/reference_cases.hpp, docs/theory.md §8) and finite-difference
+// Jacobians.
 //
 // Every number below that is a fact about the physics (reference attitudes, published
 // figures) is written out here; nothing is computed by the library under test.
@@ -14,6 +15,7 @@
 #include <limits>
 #include <random>
 
+#include "data/reference_cases.hpp"
 #include "trompo/trompo.hpp"
 
 namespace trompo_test {
@@ -160,35 +162,26 @@ struct Reference {
   Vec3 angular_velocity() const { return Vec3(omega[0], omega[1], omega[2]); }
 };
 
+/// A row of tests/data/reference_cases.hpp as a Reference.
+inline Reference reference_row(const double* row) {
+  Reference r{row[0], {}, {}};
+  std::copy(reference::rotation_of(row), reference::rotation_of(row) + 9, r.R);
+  std::copy(reference::omega_of(row), reference::omega_of(row) + 3, r.omega);
+  return r;
+}
 /// HT0 (Mgl = 196.2, tilt 0.3), closed-form Lagrange top.
-inline const Reference ht0_t1{1.0,
-                              {-0.49660203283751289, -0.74542996025870266, -0.44465784073865013, 0.85515045537378573,
-                               -0.5079340761814838, -0.10354068247635571, -0.14867454272893081, -0.43166786839232264,
-                               0.88969586474366157},
-                              {1.192316155951888, -1.931284128695494, 50.0}};
+inline const Reference ht0_t1 = reference_row(reference::ht0[2]);
 /// HT1 (Mgl = 20, tilt 0.05), closed-form Lagrange top.
-inline const Reference ht1_t1{1.0,
-                              {0.96475241867653013, 0.26227609775630119, 0.021541104974263971, -0.26096876592757017,
-                               0.9640509683388538, -0.050010335483371859, -0.033883238747590337, 0.042626036534557787,
-                               0.99851637299612085},
-                              {-0.022723435152079868, 0.036806856503271249, 50.0}};
+inline const Reference ht1_t1 = reference_row(reference::ht1[2]);
 /// HT2 (Brüls–Cardona fast top), Runge–Kutta–Fehlberg 7(8) in 128-bit floats, tol 1e-26.
-inline const Reference ht2_t05{0.5,
-                               {0.6652792324396802769416861, -0.7024682970565855893377819, 0.2528672270478926411227961,
-                                -0.3746628825214054909186725, -0.02116518470192332658080078, 0.9269194999660353346088347,
-                                -0.6457795810841508557644241, -0.7114002576517344055469526, -0.2772695548880629151643786},
-                               {-0.4710531017452488429701368, 150, 5.901083048326457027851916}};
+inline const Reference ht2_t05 = reference_row(reference::ht2[0]);
 /// FB1 (J = diag(1,2,3), Ω0 = (0.01, 2, 0.01), Λ0 = I), closed-form free body.
-inline const Reference fb1_t5{5.0,
-                              {-0.84375223625843416, 0.030208338459658179, -0.53588209533105156, -0.2722536277465605,
-                               0.83634953104616737, 0.47581238329586714, 0.46255824064406069, 0.54736360694365008,
-                               -0.69744745738005854},
-                              {-1.0835752861295045, 1.6810605578887878, 0.6256557628362521}};
+inline const Reference fb1_t5 = reference_row(reference::fb1[1]);
 /// Exact invariants of the reference set (H, μ), for checking the case definitions.
-inline constexpr double ht0_H = 1437.4370191664439, ht0_mu = 47.766824456280301;
-inline constexpr double ht1_H = 1269.9750052078993, ht1_mu = 49.937513019748312;
-inline constexpr double ht2_H = 5435.696790865546875, ht2_mu = -70.3124296875;
-inline constexpr double fb1_H = 4.0002;
+inline constexpr double ht0_H = reference::ht0[0][13], ht0_mu = reference::ht0[0][14];
+inline constexpr double ht1_H = reference::ht1[0][13], ht1_mu = reference::ht1[0][14];
+inline constexpr double ht2_H = reference::ht2[0][13], ht2_mu = reference::ht2[0][14];
+inline constexpr double fb1_H = reference::fb1[0][13];
 
 // ---- finite differences --------------------------------------------------------------------
 /// Fourth-order central difference (Richardson on steps δ and 2δ) of a vector function

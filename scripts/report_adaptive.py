@@ -3,11 +3,11 @@
 
     build/h/bench/trompo-bench --benchmark_filter='<see docs/adaptive.md>' \
         --benchmark_out=adaptive.json --benchmark_out_format=json
-    python3 scripts/report_adaptive.py [--summary] adaptive.json
+    python3 scripts/report_adaptive.py [--summary] adaptive.json [more.json ...]
 
 Reads sweep/<case>/adaptive-<method>/tol:<tol> (bench/methods/adaptive.cpp), the fixed-h
 sweeps sweep/<case>/<method>/h:<h> of the same methods, odeint's dopri5 at the same
-tolerances, and the per-step pairs step/ht1/adaptive-<method> against step/ht1/<method>.
+tolerances, and the per-step pairs step-adaptive/ht1/<method> against step/ht1/<method>.
 Prints Markdown: per case and method, the achieved error ‖ΔΛ‖_F at t_end over tol, the
 slope d log err / d log tol (least squares), accepted/rejected steps, max |ΔH/H0|, the CPU
 time and its ratio to the fixed-h sweep's time at the same error (log-log interpolation
@@ -25,14 +25,16 @@ def seconds(b):
     return b["cpu_time"] * UNIT[b.get("time_unit", "ns")]
 
 
-def load(path):
-    with open(path) as f:
-        data = json.load(f)
-    rows = [b for b in data["benchmarks"] if not b.get("error_occurred")]
+def load(paths):
+    rows = []
+    for path in paths:
+        with open(path) as f:
+            rows += [b for b in json.load(f)["benchmarks"] if not b.get("error_occurred")]
     adaptive = defaultdict(list)  # (case, method) -> [(tol, bench)]
     fixed = defaultdict(list)  # (case, method) -> [(err, seconds)]
     dopri = {}  # (case, tol text) -> bench
-    steps = defaultdict(list)  # name -> [seconds per step]
+    steps = defaultdict(list)  # (case, method) -> [seconds per plain step]
+    adaptive_steps = defaultdict(list)  # (case, method) -> [seconds per accepted adaptive step]
     for b in rows:
         # the benchmark's name without Google Benchmark's /min_time:…/repeats:… suffixes
         parts = [x for x in b.get("run_name", b["name"]).split("/") if not x.startswith(("min_time:", "repeats:"))]
@@ -45,12 +47,11 @@ def load(path):
                 dopri[(case, float(arg[4:]))] = b
             elif arg.startswith("h:") and b.get("err_rot", 0) > 0:
                 fixed[(case, method)].append((b["err_rot"], seconds(b)))
+        elif parts[0] == "step-adaptive" and len(parts) == 3 and b.get("run_type", "iteration") == "iteration":
+            adaptive_steps[(parts[1], parts[2])].append(b["s_per_step"])
         elif parts[0] == "step" and len(parts) == 3 and b.get("run_type", "iteration") == "iteration":
-            if parts[2].startswith("adaptive-"):
-                steps[name].append(b["s_per_step"])
-            else:
-                steps[name].append(seconds(b))
-    return adaptive, fixed, dopri, steps
+            steps[(parts[1], parts[2])].append(seconds(b))
+    return adaptive, fixed, dopri, (steps, adaptive_steps)
 
 
 def fixed_time_at(curve, err):
@@ -101,8 +102,8 @@ def summary(adaptive, fixed):
               f"{min(ratios):.2g}–{max(ratios):.2g} | {slope_text} | {cost} |")
 
 
-def main(path):
-    adaptive, fixed, dopri, steps = load(path)
+def main(paths):
+    adaptive, fixed, dopri, steps = load(paths)
     if "--summary" in sys.argv:
         summary(adaptive, fixed)
         overhead(steps)
@@ -133,26 +134,25 @@ def main(path):
     overhead(steps)
 
 
-def overhead(steps):
+def overhead(step_times):
+    steps, adaptive_steps = step_times
     print("\n**Estimator overhead** (HT1, h = h_step; one accepted adaptive step vs one plain step, "
           "median of the repetitions)\n")
     print("| method | plain step (µs) | adaptive step (µs) | ratio |")
     print("|---|---|---|---|")
-    for name in sorted(steps):
-        parts = name.split("/")
-        if not parts[2].startswith("adaptive-"):
-            continue
-        plain = steps.get("/".join(parts[:2] + [parts[2][len("adaptive-"):]]))
-        a = sorted(steps[name])[len(steps[name]) // 2]
+    median = lambda xs: sorted(xs)[len(xs) // 2]  # noqa: E731
+    for (case, method), times in sorted(adaptive_steps.items()):
+        a = median(times)
+        plain = steps.get((case, method))
         if plain:
-            p = sorted(plain)[len(plain) // 2]
-            print(f"| {parts[2][len('adaptive-'):]} | {p * 1e6:.3g} | {a * 1e6:.3g} | {a / p:.2f} |")
+            p = median(plain)
+            print(f"| {method} | {p * 1e6:.3g} | {a * 1e6:.3g} | {a / p:.2f} |")
         else:
-            print(f"| {parts[2][len('adaptive-'):]} | - | {a * 1e6:.3g} | - |")
+            print(f"| {method} | - | {a * 1e6:.3g} | - |")
 
 
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if a != "--summary"]
-    if len(args) != 1:
-        sys.exit("usage: report_adaptive.py [--summary] BENCH.json")
-    main(args[0])
+    if not args:
+        sys.exit("usage: report_adaptive.py [--summary] BENCH.json [MORE.json ...]")
+    main(args)

@@ -2,7 +2,7 @@
 //
 //   sweep/<case>/adaptive-<method>/tol:<tol>   tolerance sweep (rtol = atol = tol, 10× apart)
 //                                              to the case's end time, on HT0, HT1, HT2, FB1
-//   step/ht1/adaptive-<method>                 one accepted adaptive step at HT1's h_step
+//   step-adaptive/ht1/<method>                 one accepted adaptive step at HT1's h_step
 //                                              (h held there by max_step): the estimator's
 //                                              cost beside step/ht1/<method> of the core run
 //
@@ -86,14 +86,14 @@ void register_tolerance_sweep(const Problem<SceneT>& p, const std::string& metho
   }
 }
 
-/// step/<case>/adaptive-<method>: the time of one accepted adaptive step at h = h_step
+/// step-adaptive/<case>/<method>: the time of one accepted adaptive step at h = h_step
 /// (max_step = first_step = h_step and a tolerance loose enough that no step is rejected):
 /// the estimator's Ψ_h beside the two Ψ_{h/2} the run advances with, its norm and the
 /// controller [A1]–[A3]. ns_per_step is the run's time over its accepted steps.
 template <class SceneT, class MakeStepper>
 void register_adaptive_step(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
                             MakeStepper make) {
-  const std::string name = "step/" + std::string(p.c.name) + "/adaptive-" + method;
+  const std::string name = "step-adaptive/" + std::string(p.c.name) + "/" + method;
   benchmark::RegisterBenchmark(name.c_str(), [&p, make, method, scheme](benchmark::State& st) {
     const auto stepper = make(p.c.scene);
     AdaptiveOptions<double> opt;

@@ -167,9 +167,10 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
     bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
 
-    ``t_span`` is (t0, t1): the engine's scenes are autonomous (constant torques), so the run
-    over [t0, t1] is the CLI's run over [0, t1 - t0] with every time shifted by t0 (t_eval
-    and the last time reported as given); ``first_step`` is ``--dt``
+    ``t_span`` is (t0, t1): the engine's scenes are autonomous (constant torques; not the
+    satellite, whose orbit frame turns with t: t0 must be 0 there), so the run over [t0, t1]
+    is the CLI's run over [0, t1 - t0] with every time shifted by t0 (t_eval and the last
+    time reported as given); ``first_step`` is ``--dt``
     (a case gives its own); ``control`` is "tolerance" or "reversible". ``events``: built-in
     names ("nutation-max", "nutation-min", "axis-crossing", "flip"), or objects with
     ``.name`` (one of those) and optionally ``.terminal`` (bool or count); Python callables
@@ -194,6 +195,9 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
         t0, t1 = (float(x) for x in t_span)
         if not (np.isfinite(t0) and np.isfinite(t1)):
             raise ValueError(f"t_span: must be finite, got {t_span!r}")
+        if t0 != 0.0 and (flags.get("gravity_gradient") is not None or str(case).startswith("sat")):
+            # a satellite's orbit frame turns with t (radial direction given at t = 0)
+            raise ValueError("t_span: t0 != 0 needs a scene without time dependence (not a satellite)")
         kwargs["t_end"] = t1 - t0  # the autonomous run from 0 (docstring)
     if t_eval is not None:
         t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))

@@ -37,7 +37,9 @@ def test_bad_input():
     with pytest.raises(ValueError, match="t-eval"):
         trompo.solve_ivp("ht1", (0, 1), rtol=1e-6, t_eval=[0.5, 0.2])
     with pytest.raises(ValueError, match="t_span"):
-        trompo.solve_ivp("ht1", (1, 2))
+        trompo.solve_ivp("ht1", (1, float("inf")))
+    with pytest.raises(ValueError, match="span"):
+        trompo.solve_ivp("ht1", (1, 1.5), rtol=1e-6, dense_output=True).sol(1.6)
     with pytest.raises(NotImplementedError):
         trompo.solve_ivp("ht1", (0, 1), events=[lambda t, y: y[0]])
 
@@ -52,3 +54,40 @@ def test_ensemble_progress_same_bits():
     assert seen[-1] == (25, 25) and len(seen) == 13
     for key in a:
         assert np.array_equal(np.asarray(a[key]), np.asarray(b[key])), key
+
+
+def test_dense_output_is_the_runs_interpolant():
+    # sol(t) is the Lie-Hermite dense output of the same run: at the step ends the step ends
+    # themselves, bit for bit; between them the CLI's --t-eval rows, bit for bit; and within
+    # the tolerance of a converged run.
+    res = trompo.solve_ivp("ht0", (0, 1), rtol=1e-8, atol=1e-8, order=4, dense_output=True)
+    assert res.t.size > 20
+    assert np.array_equal(res.sol(res.t), res.y)
+    assert np.array_equal(res.sol(res.t[5]), res.y[:, 5])
+    mid = 0.5 * (res.t[1:] + res.t[:-1])
+    between = res.sol(mid)
+    assert between.shape == (12, mid.size)
+    code, cli, err = run_cli(["--case", "ht0", "--t-end", "1", "--order", "4", "--rtol", "1e-08", "--atol", "1e-08",
+                              "--t-eval", ",".join(repr(float(t)) for t in mid)])
+    assert code == 0
+    assert np.array_equal(between, np.concatenate([cli["R"].reshape(-1, 9), cli["W"]], axis=1).T)
+    ref = trompo.solve_ivp("ht0", (0, 1), rtol=1e-12, atol=1e-12, order=6, t_eval=mid)
+    err_rot = np.max(np.linalg.norm(between[:9] - ref.y[:9], axis=0))
+    print(f"sol between steps, HT0 rtol 1e-8: max |dLambda|_F = {err_rot:.2e} over {mid.size} midpoints")
+    assert err_rot < 1e-7
+    assert res.sol([]).shape == (12, 0)
+
+
+def test_t_span_not_starting_at_zero():
+    # The engine's scenes are autonomous: the run over [t0, t1] is the run over [0, t1 - t0]
+    # shifted, with the times the caller gave.
+    a = trompo.solve_ivp("ht1", (0, 1), rtol=1e-8, atol=1e-8, order=4, t_eval=[0.125, 0.25, 1.0],
+                         events=["nutation-max"], dense_output=True)
+    b = trompo.solve_ivp("ht1", (2, 3), rtol=1e-8, atol=1e-8, order=4, t_eval=[2.125, 2.25, 3.0],
+                         events=["nutation-max"], dense_output=True)
+    assert list(b.t) == [2.125, 2.25, 3.0]
+    assert np.array_equal(a.y, b.y)
+    assert len(a.t_events[0]) >= 1 and np.allclose(b.t_events[0], a.t_events[0] + 2, rtol=0, atol=1e-14)
+    assert np.array_equal(b.sol(2.3), a.sol(2.3 - 2))  # the run over [0, 1] at the shifted time
+    c = trompo.solve_ivp("ht1", (2, 2.5), rtol=1e-8, atol=1e-8, order=4)
+    assert c.t[0] == 2 and c.t[-1] == 2.5 and np.all(np.diff(c.t) > 0)

@@ -169,11 +169,14 @@ _SUMMARY = re.compile(r"adaptive \((\w+), rtol [^,]*, atol [^)]*\): (\d+) accept
 
 
 def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, events=None, first_step=None,
-              control="tolerance", **flags):
+              control="tolerance", dense_output=False, **flags):
     """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
     bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
 
-    ``t_span`` is (0, t_end) (runs start at t = 0, as the CLI's); ``first_step`` is ``--dt``
+    ``t_span`` is (t0, t1): the engine's scenes are autonomous (constant torques; not the
+    satellite, whose orbit frame turns with t: t0 must be 0 there), so the run over [t0, t1]
+    is the CLI's run over [0, t1 - t0] with every time shifted by t0 (t_eval and the last
+    time reported as given); ``first_step`` is ``--dt``
     (a case gives its own); ``control`` is "tolerance" or "reversible". ``events``: built-in
     names ("nutation-max", "nutation-min", "axis-crossing", "flip"), or objects with
     ``.name`` (one of those) and optionally ``.terminal`` (bool or count); Python callables
@@ -183,20 +186,28 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     ``t_events``/``y_events`` per event, ``status`` (0 end reached, 1 terminal event, -1
     failed), ``message``, ``success``, ``R``, ``W``, ``H``, ``mu``, ``pi``, ``iterations``
     (per row), ``nsteps`` (accepted), ``nreject``, ``nfail``, ``niter`` (Newton iterations
-    in all); ``sol`` is None (the dense output
-    is C++'s AdaptiveRun::solution for now).
+    in all); ``sol`` is None unless ``dense_output=True``: then ``sol(t)`` (t scalar or array
+    within the run's span) is the driver's Lie-Hermite dense output of this same run, (12,) or
+    (12, len(t)) as ``y``. It is evaluated by running the same engine again with ``--t-eval``
+    at the requested times (the step sequence does not depend on t_eval, so the values are
+    the interpolant of this run's steps, bit for bit the CLI's): each call costs one run.
     """
     kwargs = dict(case=case, rtol=rtol, atol=atol, control=control, dt=first_step, **flags)
-    if t_span is not None:
-        t0, t1 = (float(x) for x in t_span)
-        if t0 != 0.0:
-            raise ValueError(f"t_span: runs start at t = 0, got t0 = {t0!r}")
-        kwargs["t_end"] = t1
     for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
         if name in flags:
             raise TypeError(f"solve_ivp: {name!r} is not a solve_ivp argument")
+    t0, t1 = 0.0, None
+    if t_span is not None:
+        t0, t1 = (float(x) for x in t_span)
+        if not (np.isfinite(t0) and np.isfinite(t1)):
+            raise ValueError(f"t_span: must be finite, got {t_span!r}")
+        if t0 != 0.0 and (flags.get("gravity_gradient") is not None or str(case).startswith("sat")):
+            # a satellite's orbit frame turns with t (radial direction given at t = 0)
+            raise ValueError("t_span: t0 != 0 needs a scene without time dependence (not a satellite)")
+        kwargs["t_end"] = t1 - t0  # the autonomous run from 0 (docstring)
     if t_eval is not None:
-        kwargs["t_eval"] = ",".join(repr(float(v)) for v in np.atleast_1d(np.asarray(t_eval, dtype=float)))
+        t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
+        kwargs["t_eval"] = ",".join(repr(float(v - t0)) for v in t_eval)
     names = []
     if events is not None:
         if callable(events) or isinstance(events, str) or not isinstance(events, (list, tuple)):
@@ -235,12 +246,27 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     code = 1 if ended == "stopped by a terminal event" else 0 if ended == "reached t_end" else -1
     n = len(rows["t"])
     res = OdeResult(rows)
-    res["y"] = np.concatenate([rows["R"].reshape(n, 9), rows["W"]], axis=1).T.copy()
+    if t_eval is not None:
+        res["t"] = t_eval[:n].copy()  # the times as given (a terminal event may cut the list)
+    elif t0 != 0.0:
+        res["t"] = rows["t"] + t0
+        if t1 is not None and rows["t"][-1] == t1 - t0:
+            res["t"][-1] = t1
+    res["y"] = _column_states(rows).T.copy()
     res["sol"] = None
+    if dense_output and n:
+        # the run's span: from t0 to its last state (t_end, or the terminal event)
+        if t_eval is None:
+            t_last = float(res["t"][-1])
+        elif code == 1 and event_rows:
+            t_last = float(event_rows[-1][1]) + t0
+        else:
+            t_last = t1 if t1 is not None else float(t_eval[-1])
+        res["sol"] = _dense_solution(kwargs, t0, t0, t_last)
     res["t_events"], res["y_events"] = [], []
     for name in names:
         sel = [r for r in event_rows if r[0] == name]
-        res["t_events"].append(np.array([float(r[1]) for r in sel]))
+        res["t_events"].append(np.array([float(r[1]) + t0 for r in sel]))
         res["y_events"].append(np.array([[float(v) for v in r[2:14]] for r in sel]).reshape(len(sel), 12))
     res["status"] = code
     res["success"] = code >= 0
@@ -248,6 +274,37 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
                       0: "The solver successfully reached the end of the integration interval."}.get(code, ended)
     res["nsteps"], res["nreject"], res["nfail"], res["niter"] = (int(m.group(k)) for k in (2, 3, 4, 5))
     return res
+
+
+def _column_states(rows):
+    """(n, 12): Λ row-major, then Ω, per row of the engine."""
+    n = len(rows["t"])
+    return np.concatenate([rows["R"].reshape(n, 9), rows["W"]], axis=1)
+
+
+def _dense_solution(kwargs, t0, t_first, t_last):
+    """solve_ivp's ``sol``: the run of ``kwargs`` again, with rows at the requested times."""
+    kwargs = {k: v for k, v in kwargs.items() if k not in ("t_eval", "event_csv")}
+    lo, hi = min(t_first, t_last), max(t_first, t_last)
+
+    def sol(t):
+        ts = np.asarray(t, dtype=float)
+        flat = np.atleast_1d(ts).ravel()
+        if flat.size == 0:
+            return np.empty((12, 0))
+        if not np.all(np.isfinite(flat)) or flat.min() < lo or flat.max() > hi:
+            raise ValueError(f"sol: t must lie in the run's span [{lo!r}, {hi!r}]")
+        times = np.unique(flat)  # increasing; the engine wants the order of integration
+        if t_last < t_first:
+            times = times[::-1]
+        status, rows, messages = _simulate_flags(_flags(dict(kwargs, t_eval=",".join(repr(float(v - t0)) for v in times))))
+        if len(rows["t"]) != len(times):
+            raise RuntimeError("sol: the engine gave %d of %d rows: %s" % (len(rows["t"]), len(times), "; ".join(messages)))
+        y = _column_states(rows)[np.searchsorted(times, flat) if t_last >= t_first
+                                 else len(times) - 1 - np.searchsorted(times[::-1], flat)]
+        return y[0] if ts.ndim == 0 else y.T.reshape((12,) + ts.shape)
+
+    return sol
 # ---- end adaptive ----
 
 

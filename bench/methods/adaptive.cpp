@@ -1,0 +1,169 @@
+// The adaptive driver in trompo-bench (drivers/adaptive.hpp, docs/adaptive.md):
+//
+//   sweep/<case>/adaptive-<method>/tol:<tol>   tolerance sweep (rtol = atol = tol, 10× apart)
+//                                              to the case's end time, on HT0, HT1, HT2, FB1
+//   step-adaptive/ht1/<method>                 one accepted adaptive step at HT1's h_step
+//                                              (h held there by max_step): the estimator's
+//                                              cost beside step/ht1/<method> of the core run
+//
+// Methods: simo-kappa (order 2), simo-kappa-o4s (Suzuki's five steps), simo-kappa-o6
+// (Kahan–Li's nine), splitting-strang, splitting-suzuki-5, splitting-kahan-li-9. The sweeps
+// sit beside the fixed-h sweeps of the same methods (sweep/<case>/<method>/h:…) and odeint's
+// dopri5 at the same tolerances (sweep/<case>/odeint-dopri5/tol:…), all from the core run.
+// Counters of a sweep: as the fixed-h sweeps (err_rot = ‖ΔΛ‖_F at the end against the case's
+// reference, max_dH = max |ΔH/H0|, steps = accepted steps, h = mean step) plus accepted,
+// rejected, and newton per accepted step (all attempts' iterations). scripts/report_adaptive.py
+// makes the table of docs/adaptive.md from the JSON.
+#include <cmath>
+#include <string>
+
+#include "bench_common.hpp"
+#include "trompo/drivers/adaptive.hpp"
+#include "trompo/schemes/simo/simo_kappa.hpp"
+#include "trompo/schemes/splitting/splitting.hpp"
+
+namespace trompo_bench {
+namespace {
+
+/// Smallest tolerance of the sweep per order: below it the run costs more than the
+/// bench's budget (order 2 at 1e-8 on FB1 would take ~10^7 steps) or sits in round-off.
+double smallest_tol(int order) { return order <= 2 ? 1e-7 : order <= 4 ? 1e-11 : 1e-12; }
+
+struct AdaptiveResult {
+  RunResult run;
+  AdaptiveSummary<double> summary;
+};
+
+/// One adaptive run of the case; Instrumented: the invariants after every accepted step.
+template <bool Instrumented, class StepperT, class SceneT>
+AdaptiveResult run_adaptive(const StepperT& stepper, const cases::Case<SceneT>& c, const AdaptiveOptions<double>& opt) {
+  AdaptiveResult r;
+  State<double> s = c.initial;
+  Invariants<SceneT> inv(c.scene, s);
+  if constexpr (Instrumented) {
+    r.summary = integrate_adaptive(stepper, s, c.t_end, opt,
+                                   [&](const DenseNode<double>&, const DenseNode<double>& b) { inv.update(c.scene, b.state); });
+  } else {
+    r.summary = integrate_adaptive(stepper, s, c.t_end, opt);
+  }
+  r.run.end = s;
+  r.run.steps = long(r.summary.accepted);
+  r.run.newton = long(r.summary.iterations);
+  r.run.max_dH = inv.max_dH;
+  r.run.max_dmu = inv.max_dmu;
+  r.run.ok = r.summary.ok();
+  if (!r.run.ok) r.run.why = r.summary.message();
+  return r;
+}
+
+template <class SceneT, class MakeStepper>
+void register_tolerance_sweep(const Problem<SceneT>& p, const std::string& method, const std::string& scheme, int order,
+                              MakeStepper make) {
+  for (int k = 3; k <= 12; ++k) {
+    const double tol = std::pow(10.0, -k);
+    if (tol < smallest_tol(order) * (1 - 1e-9)) break;
+    const std::string name = "sweep/" + std::string(p.c.name) + "/adaptive-" + method + "/tol:" + h_text(tol);
+    benchmark::RegisterBenchmark(name.c_str(), [&p, make, tol, method, scheme](benchmark::State& st) {
+      const auto stepper = make(p.c.scene);
+      AdaptiveOptions<double> opt;
+      opt.rtol = tol;
+      opt.atol = tol;
+      const AdaptiveResult r = run_adaptive<true>(stepper, p.c, opt);
+      const double h_mean = p.c.t_end / double(std::max(1L, r.run.steps));
+      if (!report(st, p, r.run, h_mean,
+                  label_of(p.c.name, "adaptive-" + method, scheme, stepper.order(), h_mean, tol, stages_of(stepper))))
+        return;
+      st.counters["accepted"] = double(r.summary.accepted);
+      st.counters["rejected"] = double(r.summary.rejected);
+      st.counters["failures"] = double(r.summary.failures);
+      st.counters["base_steps"] = double(r.summary.base_steps);
+      st.counters["tol"] = tol;
+      for (auto _ : st) {
+        AdaptiveResult timed = run_adaptive<false>(stepper, p.c, opt);
+        benchmark::DoNotOptimize(timed.run.end);
+      }
+    })->MinTime(sweep_min_time)->Unit(benchmark::kMillisecond);
+  }
+}
+
+/// step-adaptive/<case>/<method>: the time of one accepted adaptive step at h = h_step
+/// (max_step = first_step = h_step and a tolerance loose enough that no step is rejected):
+/// the estimator's Ψ_h beside the two Ψ_{h/2} the run advances with, its norm and the
+/// controller [A1]–[A3]. ns_per_step is the run's time over its accepted steps.
+template <class SceneT, class MakeStepper>
+void register_adaptive_step(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
+                            MakeStepper make) {
+  const std::string name = "step-adaptive/" + std::string(p.c.name) + "/" + method;
+  benchmark::RegisterBenchmark(name.c_str(), [&p, make, method, scheme](benchmark::State& st) {
+    const auto stepper = make(p.c.scene);
+    AdaptiveOptions<double> opt;
+    opt.rtol = 1e-2;
+    opt.atol = 1e-2;
+    opt.first_step = p.h_step;
+    opt.max_step = p.h_step;
+    const double t_end = p.c.initial.time + 1000 * p.h_step;
+    cases::Case<SceneT> c = p.c;
+    c.t_end = t_end;
+    const AdaptiveResult r = run_adaptive<false>(stepper, c, opt);
+    if (!r.run.ok || r.summary.rejected != 0) {
+      st.SkipWithError("the adaptive run at fixed h failed or rejected a step");
+      return;
+    }
+    const double steps = double(r.summary.accepted);
+    for (auto _ : st) {
+      AdaptiveResult timed = run_adaptive<false>(stepper, c, opt);
+      benchmark::DoNotOptimize(timed.run.end);
+    }
+    st.counters["accepted"] = steps;
+    st.counters["newton"] = double(r.summary.iterations) / steps;
+    st.counters["h"] = p.h_step;
+    // seconds per accepted step (Google Benchmark prints it scaled, e.g. 1.2u)
+    st.counters["s_per_step"] = benchmark::Counter(steps, benchmark::Counter::kIsIterationInvariantRate |
+                                                              benchmark::Counter::kInvert);
+    st.SetLabel(label_of(p.c.name, "adaptive-" + method, scheme, stepper.order(), p.h_step, 1e-2, stages_of(stepper)));
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kMicrosecond);
+}
+
+/// f(method, scheme, order, make) for every configuration measured.
+template <class SceneT, class F>
+void for_each_configuration(F&& f) {
+  for (Composition m : {Composition::base, Composition::suzuki5, Composition::kahan_li9}) {
+    const int order = m == Composition::base ? 2 : m == Composition::suzuki5 ? 4 : 6;
+    f(method_name(SimoKappa::name, m), std::string(SimoKappa::name), order,
+      [m](const SceneT& scene) { return ComposedStepper<SimoKappa, SceneT>(SimoKappa{}, scene, m); });
+  }
+  struct Named {
+    SplittingMethod m;
+    const char* name;
+    int order;
+  };
+  for (Named s : {Named{SplittingMethod::strang, "splitting-strang", 2}, Named{SplittingMethod::suzuki_5, "splitting-suzuki-5", 4},
+                  Named{SplittingMethod::kahan_li_9, "splitting-kahan-li-9", 6}})
+    f(std::string(s.name), std::string(Splitting::name), s.order,
+      [m = s.m](const SceneT& scene) { return Stepper<Splitting, SceneT>(Splitting(m), scene); });
+}
+
+template <class SceneT>
+void sweeps_of(const Problem<SceneT>& p) {
+  for_each_configuration<SceneT>([&p](const std::string& method, const std::string& scheme, int order, auto make) {
+    register_tolerance_sweep(p, method, scheme, order, make);
+  });
+}
+
+void register_adaptive_sweeps() {
+  for (const auto& p : tops) sweeps_of(p);
+  for (const auto& p : frees) sweeps_of(p);
+}
+
+void register_adaptive_steps() {
+  const Problem<Top>& ht1 = tops[1];
+  for_each_configuration<Top>([&ht1](const std::string& method, const std::string& scheme, int, auto make) {
+    register_adaptive_step(ht1, method, scheme, make);
+  });
+}
+
+}  // namespace
+}  // namespace trompo_bench
+
+const trompo_bench::MethodFamily adaptive{"adaptive", trompo_bench::register_adaptive_steps,
+                                          trompo_bench::register_adaptive_sweeps};

@@ -29,6 +29,7 @@ using Sat = cases::Satellite<double>;
 /// from the case's initial state, so the runner keeps the memory of that trajectory.
 template <class SceneT>
 struct SatSplittingRunner {
+  using Scalar = typename SceneT::Scalar;  // what trompo::integrate() asks of a stepper
   Stepper<Splitting, SceneT> stepper;
   mutable typename Stepper<Splitting, SceneT>::Memory memory{};
   SatSplittingRunner(Splitting scheme, SceneT scene) : stepper(scheme, std::move(scene)) {}
@@ -58,6 +59,7 @@ Reference long_double_run(SplittingMethod method, long n) {
 /// (schemes/simo/simo_step.hpp), which a tumbling satellite meets every few hundred steps.
 template <class Scheme>
 struct Recovering {
+  using Scalar = double;  // what trompo::integrate() asks of a stepper
   ComposedStepper<Scheme, Sat> stepper;
   StepReport<double> step(State<double>& s, double h, int depth = 0) const {
     StepReport<double> rep = stepper.step(s, h);

@@ -125,7 +125,7 @@ void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_t
 }
 }  // namespace
 
-TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1; the scheme) and FB1 (t = 5; and its compositions) within [p - 0.3, p + 0.6]",
+TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1, the scheme) and FB1 (t = 5, and its compositions) within [p - 0.3, p + 0.6]",
                         "[properties][order]", Entries) {
   // HT1: the scheme itself. Its compositions on FB1: on the fast top the compositions of
   // Simo's collocation are capped near order 3 by its α root switch (measured 3.25 for the
@@ -303,7 +303,7 @@ TEMPLATE_LIST_TEST_CASE("registry: float and long double keep what the scheme ke
   check_scalar<TestType, long double>(cases::fb1<long double>(), cases::fb1<double>(), 0.02, 1e-11);
 }
 
-TEMPLATE_LIST_TEST_CASE("registry: no heap allocation in a step (plain, composed, processed; HT1 and FB1)",
+TEMPLATE_LIST_TEST_CASE("registry: no heap allocation in a step (plain, composed, processed, on HT1 and FB1)",
                         "[properties][no_alloc]", Entries) {
   auto check_on = []([[maybe_unused]] const auto& c, [[maybe_unused]] double h) {
     using SceneT = typename std::decay_t<decltype(c)>::SceneT;

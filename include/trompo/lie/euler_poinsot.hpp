@@ -55,6 +55,9 @@ class EulerPoinsot {
 
   /// Largest |λ|·h of one quadrature panel [F6] (7 points hold round-off up to here).
   static constexpr Scalar panel_max = Scalar(0.5);
+  /// Most panels one step may take (|λ|h ≤ 2¹⁵: about 5,000 periods of Π); a longer step is
+  /// refused as failed. Reducing h modulo the period, as exact::FreeBody does, would lift this.
+  static constexpr Scalar max_panels = Scalar(65536);
 
   EulerPoinsot() : EulerPoinsot(Vector3::Ones()) {}
   /// Principal moments J (all finite and > 0, any order). Throws invalid_input otherwise.
@@ -236,6 +239,12 @@ class EulerPoinsot {
     const Scalar m = ph.m, G = ph.G;
     // panels with |λ| h_p ≤ ½ [F6]
     const Scalar span = abs(ph.lambda * h) / panel_max;
+    if (span > max_panels) {
+      // A step over thousands of periods of Π would cost a panel per ½/|λ|: refused, as a
+      // failed step (the caller's state is untouched; integrate() recovers by sub-steps).
+      Pi.setConstant(std::numeric_limits<Scalar>::quiet_NaN());
+      return;
+    }
     const long panels = span > Scalar(1) ? long(ceil(span)) : 1L;
     const Scalar hp = h / Scalar(panels);
     const Scalar v = Scalar(0.5) * ph.lambda * hp;  // the half-panel increment of u

@@ -118,6 +118,12 @@ void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_t
       }
       const double observed = trompo_test::observed_order(err[0], err[1]);
       INFO("errors " << err[0] << ", " << err[1] << ": observed order " << observed);
+      if (err[0] < 1e-12) {
+        // Exact on this case (the splitting on the torque-free body steps the Euler–Poinsot
+        // flow): both errors at round-off, no order to observe.
+        CHECK(err[1] < 1e-12);
+        return;
+      }
       CHECK(observed >= p - 0.3);
       CHECK(observed <= p + 0.6);
     });

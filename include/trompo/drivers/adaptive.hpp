@@ -75,6 +75,7 @@ template <class Scalar>
 struct AdaptiveOptions {
   Scalar rtol = Scalar(1e-6);             ///< relative tolerance (> 0)
   Scalar atol = Scalar(1e-6);             ///< absolute tolerance (≥ 0; rad and rad/s)
+  /// Tolerance (step doubling + PI control) or reversible (step density) mode.
   StepControl control = StepControl::tolerance;
   Scalar first_step = Scalar(0);          ///< |h| of the first step; 0: selected [A3]
   Scalar max_step = std::numeric_limits<Scalar>::infinity();  ///< largest |h|
@@ -88,6 +89,7 @@ struct AdaptiveOptions {
   /// Reversible mode: ε of h = ε/ρ (0: from the tolerance by a pilot run) and the floor
   /// ω₀ of Q (0: max(1e-3|Ω₀|, √|Ω̇₀|, 1e-8)).
   Scalar epsilon = Scalar(0);
+  /// Reversible mode: the floor ω₀ of the control function Q = √(|Ω|² + ω₀²).
   Scalar omega_floor = Scalar(0);
   /// Dense output and events: quintic (else cubic) Lie–Hermite interpolant [D2].
   bool quintic = true;
@@ -129,6 +131,7 @@ struct AdaptiveSummary {
   std::int64_t failures = 0;    ///< attempts whose step failed (Newton, …), retried shorter
   std::int64_t iterations = 0;  ///< Newton iterations of all attempts
   std::int64_t base_steps = 0;  ///< step() calls on the stepper (each a whole composition)
+  /// How the run ended.
   AdaptiveStatus status = AdaptiveStatus::reached_end;
   StepStatus failure = StepStatus::ok;  ///< the step failure that stopped a failed run
   Scalar time = Scalar(0);              ///< the time reached
@@ -153,10 +156,15 @@ struct AdaptiveSummary {
 /// order of integration): a tilt maximum is a maximum either way.
 template <class Scalar>
 struct Event {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// The event's name (built-ins: nutation-max, nutation-min, axis-crossing, flip).
   std::string name;
+  /// The event function g(t, Λ, Ω); an event is a zero of it.
   std::function<Scalar(Scalar, const SO3<Scalar>&, const Vector3&)> g;
+  /// +1 rising, −1 falling, 0 both (with increasing t).
   int direction = 0;
+  /// 0: never ends the run; n ≥ 1: the n-th occurrence ends it.
   int terminal = 0;
 };
 
@@ -753,6 +761,7 @@ struct AdaptiveRun {
   std::vector<State<Scalar>> states;               ///< at t_eval, or at every accepted step
   DenseSolution<Scalar> solution;                  ///< sol(t): anywhere in the span
   std::vector<std::vector<State<Scalar>>> events;  ///< per event, the states where it occurred
+  /// Steps, rejections, Newton iterations and the status of the run.
   AdaptiveSummary<Scalar> summary;
   /// SciPy's success: the run did not fail.
   bool success() const { return summary.ok(); }

@@ -31,7 +31,9 @@ namespace trompo {
 /// A state with the rates the interpolant needs: Ω̇ and Ω̈ at (Λ, Ω, t).
 template <class Scalar>
 struct DenseNode {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// The state at this node.
   State<Scalar> state;
   Vector3 omega_dot = Vector3::Zero();   ///< Ω̇ = J⁻¹(Π × Ω + τ)       [D3]
   Vector3 omega_ddot = Vector3::Zero();  ///< Ω̈ = J⁻¹(JΩ̇ × Ω + Π × Ω̇ + τ̇)
@@ -112,6 +114,7 @@ Eigen::Matrix<Scalar, 3, 1> inverse_tangent_derivative(const Eigen::Matrix<Scala
 template <class Scalar>
 class LieHermite {
  public:
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
 
   LieHermite() = default;
@@ -164,6 +167,7 @@ class LieHermite {
 
   /// Start and end time of the step.
   Scalar t_start() const { return t0_; }
+  /// The time of the interval's end.
   Scalar t_end() const { return t1_; }
 
  private:
@@ -210,6 +214,7 @@ class DenseSolution {
   const std::vector<DenseNode<Scalar>>& nodes() const { return nodes_; }
   /// The first and last time.
   Scalar t_start() const { return nodes_.empty() ? Scalar(0) : nodes_.front().state.time; }
+  /// The time of the solution's end (the last node).
   Scalar t_end() const { return nodes_.empty() ? Scalar(0) : nodes_.back().state.time; }
 
   /// The state at t, which must lie in the span (throws invalid_input otherwise). At a node

@@ -269,6 +269,7 @@ class FreeBodyClosedForm {
 /// or a Lambda0 that is not a rotation.
 class FreeBody {
  public:
+  /// The free body of principal moments J (diagonal inertia) from Λ0 and Ω0 (body frame).
   FreeBody(const Eigen::Vector3d& J, const Eigen::Matrix3d& Lambda0, const Eigen::Vector3d& Omega0)
       : L0_(Lambda0), W0_(Omega0) {
     detail::check_free_body(J, Lambda0, Omega0);

@@ -50,7 +50,9 @@ struct GaussLegendre7 {
 template <class Scalar>
 class EulerPoinsot {
  public:
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A quaternion of Scalar (kept unit).
   using Quaternion = Eigen::Quaternion<Scalar>;
 
   /// Largest |λ|·h of one quadrature panel [F6] (7 points hold round-off up to here).
@@ -96,7 +98,10 @@ class EulerPoinsot {
   /// The invariants of a momentum, as the flow reads them [F1]–[F3]: k² (m), 1 − k² (mc),
   /// the rate λ of the phase u, and the slot-1 axis (the one the polhode circles).
   struct Invariants {
-    Scalar m = Scalar(0), mc = Scalar(1), lambda = Scalar(0);
+    Scalar m = Scalar(0);       ///< k², the modulus
+    Scalar mc = Scalar(1);      ///< 1 − k²
+    Scalar lambda = Scalar(0);  ///< the rate λ of the phase u = u₀ + λt
+    /// The principal axis in slot 1 (the one the polhode circles).
     int circled_axis = 0;
   };
   /// The invariants of Π (a symmetric body: m = 0, λ = 0).

@@ -72,8 +72,11 @@ struct JacobiModulus {
 /// sn, cn, dn at one argument, with 1 − cn and 1 − dn to relative accuracy.
 template <class Scalar>
 struct JacobiValues {
-  Scalar sn = Scalar(0), cn = Scalar(1), dn = Scalar(1);
-  Scalar one_minus_cn = Scalar(0), one_minus_dn = Scalar(0);
+  Scalar sn = Scalar(0);  ///< sn(u | m)
+  Scalar cn = Scalar(1);  ///< cn(u | m)
+  Scalar dn = Scalar(1);  ///< dn(u | m)
+  Scalar one_minus_cn = Scalar(0);  ///< 1 − cn, carried without cancellation
+  Scalar one_minus_dn = Scalar(0);  ///< 1 − dn, carried without cancellation
 };
 
 /// (sn, cn, dn)(u | m) by the ladder of m (see the file comment).

@@ -26,7 +26,9 @@ namespace trompo {
 /// first, and the inverse Newton tangent of the last step. Default-constructed: fresh.
 template <class Scalar>
 struct IncrementHistory {
+  /// A 3-vector of Scalar.
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   /// Increments kept: the predictor is the polynomial of degree depth − 1 through them.
   static constexpr int depth = 6;

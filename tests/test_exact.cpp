@@ -476,10 +476,22 @@ TEST_CASE("exact: FreeBody on degenerate and other inputs", "[exact][free][ode]"
     const Vector3d W0(1.0 / 3.0, 0.25, 1.0 / 6.0);
     REQUIRE(J.cwiseProduct(W0) == Vector3d(1, 1, 1));
     const FreeBody body(J, Matrix3d::Identity(), W0);
-    for (double t : {-1000.0, -10.0, 0.0, 1.0, 10.0, 100.0, 1000.0, 1e6}) {
+    // No period: an evaluation at large |t| runs the flow over all of t (in pieces); the
+    // spatial momentum π = Λ J Ω stays π0 there, which a stale or non-finite Λ would not.
+    const Vector3d pi0 = J.cwiseProduct(W0);  // Λ0 = I
+    for (double t : {-1e6, -1000.0, -10.0, 0.0, 1.0, 10.0, 100.0, 1000.0, 1e6}) {
       CHECK(body.rotation(t).allFinite());
       CHECK(body.omega(t).allFinite());
+      CHECK((body.rotation(t) * J.cwiseProduct(body.omega(t)) - pi0).norm() <= 1e-12 * pi0.norm());
     }
+    CHECK(std::abs(J(1) * body.omega(1e6)(1) - std::sqrt(3.0)) <= 1e-14);
+    // Past |λt| = 80 the body spins steadily about the middle axis: the same attitude as the
+    // flow run in one call (which holds to |λt| ≈ 150 before round-off leaves the axis).
+    trompo::EulerPoinsot<double> flow(J);
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    Vector3d P = J.cwiseProduct(W0);
+    flow.advance(q, P, 1000.0);  // |λ| = 0.144: |λt| = 144
+    CHECK((body.rotation(1000.0) - q.toRotationMatrix()).norm() <= 1e-12);
     // Π tends to ±G e_mid as t → ±∞ (the unstable axis, reached asymptotically; no period)
     CHECK(std::abs(J(1) * body.omega(1000.0)(1) - std::sqrt(3.0)) <= 1e-14);
     CHECK(std::abs(J(1) * body.omega(-1000.0)(1) + std::sqrt(3.0)) <= 1e-14);

@@ -264,7 +264,8 @@ class FreeBodyClosedForm {
 /// the period of Π, turned about π by the precession of the whole periods (found once, at
 /// construction, by one call over a period). An evaluation costs one call over less than a
 /// period: ≤ 4K/0.5 quadrature panels (FB1: ≤ 51), whatever t. A spin about a principal axis
-/// is the closed form exp(tΩ̂0); on the separatrix itself (no period) the call runs over t.
+/// is the closed form exp(tΩ̂0); on the separatrix itself (no period) the flow runs over t up to
+/// |λt| = 80, where Π has reached the middle axis, and the steady spin about it from there.
 /// Throws trompo::invalid_input (naming the field and the value) on J ≤ 0, non-finite input
 /// or a Lambda0 that is not a rotation.
 class FreeBody {
@@ -325,7 +326,32 @@ class FreeBody {
     }
     q = q0_;
     P = P0_;
-    flow_.advance(q, P, r);
+    if (std::isfinite(period_)) {
+      flow_.advance(q, P, r);
+      return n;
+    }
+    // On the separatrix there is no period to reduce t by. Π reaches the middle axis as
+    // sech(u), u = u₀ + λt: past |λt| = 80 (more than |u₀| + 40 for any start, since
+    // tanh u₀ < 1 in double needs |u₀| < 19) Π lies on that axis to round-off, and the motion
+    // is the steady spin about it, Π = ±G e_mid. One call of the flow takes it there (160
+    // panels at most): running it further, or in several calls, would feed round-off into
+    // the unstable equilibrium, where it grows as e^{|λ|t}.
+    const double t_axis = 80.0 / std::abs(flow_.invariants(P0_).lambda);
+    if (!(std::abs(r) > t_axis)) {
+      flow_.advance(q, P, r);
+      return n;
+    }
+    const double dt = std::copysign(t_axis, r);
+    flow_.advance(q, P, dt);
+    Eigen::Index imin = 0, imax = 0;
+    J_.minCoeff(&imin);
+    J_.maxCoeff(&imax);
+    const Eigen::Index mid = 3 - imin - imax;
+    const double Pmid = std::copysign(P0_.norm(), P(mid));  // Π = ±G e_mid
+    P = Eigen::Vector3d::Zero();
+    P(mid) = Pmid;
+    // Λ ← Λ exp((r − dt) Ω̂), Ω = Π/J_mid
+    q = q * Eigen::Quaterniond(Eigen::AngleAxisd((r - dt) * Pmid / J_(mid), Eigen::Vector3d::Unit(mid)));
     return n;
   }
 

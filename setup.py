@@ -23,10 +23,22 @@ macros = [("TROMPO_VERSION", '"0.1.0"')]
 if os.path.isfile("/usr/include/boost/math/special_functions/ellint_rf.hpp"):
     macros.append(("TROMPO_HAVE_EXACT", "1"))
 
+# The module and the CLI's engine (tools/simulate/simulate_core.cpp), as CMake builds it.
+# TROMPO_ENGINE_LIB names an engine CMake has already compiled (the static library
+# trompo_simulate_core, position-independent): it is linked instead of compiled again. The
+# test command's pip-install check does so; a plain `pip install .` compiles the engine.
+sources = [os.path.join("python", "trompo_module.cpp")]
+engine_lib = os.environ.get("TROMPO_ENGINE_LIB", "")
+if engine_lib:
+    if not os.path.isfile(engine_lib):
+        sys.exit("trompo: TROMPO_ENGINE_LIB=%s: no such file" % engine_lib)
+else:
+    sources.append(os.path.join("tools", "simulate", "simulate_core.cpp"))
+
 ext = Pybind11Extension(
     "trompo._trompo",
-    # the module and the CLI's engine (tools/simulate/simulate_core.cpp), as CMake builds it
-    [os.path.join("python", "trompo_module.cpp"), os.path.join("tools", "simulate", "simulate_core.cpp")],
+    sources,
+    extra_objects=[engine_lib] if engine_lib else [],
     include_dirs=[os.path.join(HERE, "include"), os.path.join(HERE, "tools"), eigen],
     define_macros=macros,
     cxx_std=20,

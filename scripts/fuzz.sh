@@ -23,12 +23,16 @@ if [ -z "$cxx" ]; then
     if command -v "$c" >/dev/null; then cxx=$c; break; fi
   done
 fi
-[ -n "$cxx" ] || { echo "fuzz: clang++ not found (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
+[ -n "$cxx" ] || [ -n "${TROMPO_FUZZ_BIN:-}" ] || { echo "fuzz: clang++ not found (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 eigen=$(pkg-config --cflags-only-I eigen3 2>/dev/null || echo -I/usr/include/eigen3)
 
-# Rebuild when any header or the target is newer than the binary.
-bin="$out/fuzz_step"
-if [ ! -x "$bin" ] || [ -n "$(find include fuzz -newer "$bin" \( -name '*.hpp' -o -name '*.cpp' \) -print -quit)" ]; then
+# TROMPO_FUZZ_BIN: a fuzz_step built already (scripts/test.sh: by the sanitizer build,
+# fuzz/CMakeLists.txt). Otherwise build/fuzz/fuzz_step, rebuilt when any header or the
+# target is newer than the binary.
+bin=${TROMPO_FUZZ_BIN:-$out/fuzz_step}
+if [ -n "${TROMPO_FUZZ_BIN:-}" ]; then
+  [ -x "$bin" ] || { echo "fuzz: TROMPO_FUZZ_BIN=$bin is not an executable" >&2; exit 1; }
+elif [ ! -x "$bin" ] || [ -n "$(find include fuzz -newer "$bin" \( -name '*.hpp' -o -name '*.cpp' \) -print -quit)" ]; then
   echo "fuzz: building $bin with $cxx"
   # shellcheck disable=SC2086
   "$cxx" -std=c++20 -O1 -g -fno-omit-frame-pointer \

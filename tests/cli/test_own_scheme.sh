@@ -3,10 +3,11 @@
 # appended to trompo::RegisteredSchemes in a test build (tests/support/register_own_scheme.hpp),
 # runs in that build's CLI (plain, composed, processed; refused on the heavy top, as its
 # entry says: free body only) and in the generic property suite (built so), with no other edit.
-#   test_own_scheme.sh <trompo-simulate built so> <test_scheme_properties>
+#   test_own_scheme.sh <trompo-simulate built so> <test_properties_numbers> <test_properties_contracts>
 set -u
 sim="$1"
-props="$2"
+numbers="$2"
+contracts="$3"
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 
 check "--help lists my-midpoint" '"$sim" --help | grep -q "|my-midpoint|"'
@@ -20,8 +21,11 @@ done
 "$sim" --case ht1 --scheme my-midpoint >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
 check "--scheme my-midpoint on the heavy top: exit 2, the free body only" '[ $rc -eq 2 ] && grep -q "free body only" "$tmp/bad.err"'
 
-for what in order invariants failure backward no_alloc; do
-  check "the generic suite ran my-midpoint: [$what]" '"$props" -s "[$what]" | grep -q "scheme my-midpoint"'
+for what in order invariants; do
+  check "the generic suite ran my-midpoint: [$what]" '"$numbers" -s "[$what]" | grep -q "scheme my-midpoint"'
+done
+for what in failure backward no_alloc; do
+  check "the generic suite ran my-midpoint: [$what]" '"$contracts" -s "[$what]" | grep -q "scheme my-midpoint"'
 done
 echo "own scheme: $fails failed"
 [ $fails -eq 0 ]

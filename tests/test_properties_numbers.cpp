@@ -1,0 +1,164 @@
+// The generic property suite over the scheme registry, its numbers: order from a Δt sweep,
+// the declared invariants, float and long double (tests/support/scheme_properties.hpp says
+// what the suite checks and why it is two files).
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "support/scheme_properties.hpp"
+
+using namespace trompo;
+using namespace trompo_test::properties;
+using trompo_test::Vec3;
+
+TEMPLATE_LIST_TEST_CASE("registry: every scheme has a unique name, an order and steps the free body", "[properties][registry]",
+                        Entries) {
+  INFO("scheme " << TestType::name);
+  const std::string name = TestType::name;
+  CHECK(!name.empty());
+  int same = 0;
+  RegisteredSchemes::for_each([&](auto e) { same += name == decltype(e)::type::name ? 1 : 0; });
+  CHECK(same == 1);
+  CHECK(TestType::Scheme::traits.order >= 1);
+  CHECK(TestType::template steps<FreeScene<double>>);
+}
+
+namespace {
+/// The observed order of every stepper of Entry from two runs to the reference row `ref`
+/// (h_coarse[p] and half of it, by the stepper's order p), within [p - 0.3, p + 0.6].
+template <class Entry, class Case>
+void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_test::Reference& ref, [[maybe_unused]] double h2,
+                 [[maybe_unused]] double h4, [[maybe_unused]] double h6, [[maybe_unused]] bool plain_only) {
+  using SceneT = typename Case::SceneT;
+  if constexpr (Entry::template steps<SceneT>) {
+    for_each_stepper<Entry>(c.scene, [&](const auto& st, int p, const char* label) {
+      if (plain_only && std::string(label) != "plain") return;
+      INFO("scheme " << Entry::name << ", " << label << ", order " << p << " on " << c.name);
+      // Coarse enough that the error stays far above round-off, fine enough to be asymptotic.
+      const double h = p <= 2 ? h2 : p <= 4 ? h4 : h6;
+      double err[2];
+      for (int k = 0; k < 2; ++k) {
+        const double hk = h / (1 << k);
+        auto traj = st.start(c.initial);
+        REQUIRE(advance(st, traj, hk, std::lround(ref.t / hk)));
+        err[k] = error_to(traj, ref);
+      }
+      const double observed = trompo_test::observed_order(err[0], err[1]);
+      INFO("errors " << err[0] << ", " << err[1] << ": observed order " << observed);
+      if (err[0] < 1e-12) {
+        // Exact on this case (the splitting on the torque-free body steps the Euler–Poinsot
+        // flow): both errors at round-off, no order to observe.
+        CHECK(err[1] < 1e-12);
+        return;
+      }
+      CHECK(observed >= p - 0.3);
+      CHECK(observed <= p + 0.6);
+    });
+  }
+}
+}  // namespace
+
+TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1, the scheme) and FB1 (t = 5, and its compositions) within [p - 0.3, p + 0.6]",
+                        "[properties][order]", Entries) {
+  // HT1: the scheme itself. Its compositions on FB1: on the fast top the compositions of
+  // Simo's collocation are capped near order 3 by its α root switch (measured 3.25 for the
+  // processed one; test_composition.cpp keeps that case).
+  check_order<TestType>(cases::ht1<double>(), trompo_test::ht1_t1, 0.002, 0.01, 0.02, true);
+  check_order<TestType>(cases::fb1<double>(), trompo_test::fb1_t5, 0.02, 0.1, 0.25, false);
+}
+
+namespace {
+/// The invariants `keeps` declares, over n steps of h from the case's initial state, and
+/// an orthonormal attitude whatever it keeps.
+template <class Entry, class Case>
+void check_kept([[maybe_unused]] const Case& c, [[maybe_unused]] double h, [[maybe_unused]] long n) {
+  using SceneT = typename Case::SceneT;
+  if constexpr (Entry::template steps<SceneT>) {
+    for_each_stepper<Entry>(c.scene, [&](const auto& st, int, const char* label) {
+      const Keeps kept = keeps<SceneT>(st.scheme());
+      INFO("scheme " << Entry::name << ", " << label << " on " << c.name << ": keeps H " << kept.energy << ", mu "
+                     << kept.momentum_map << ", pi " << kept.spatial_momentum << ", H decays " << kept.energy_decays);
+      const auto& scene = c.scene;
+      auto traj = st.start(c.initial);
+      const double H0 = scene.energy(traj), mu0 = scene.momentum_map(traj);
+      const Vec3 pi0 = scene.spatial_momentum(traj);
+      double dH = 0, dmu = 0, dpi = 0, rise = 0, orth = 0, H_prev = H0;
+      for (long k = 0; k < n; ++k) {
+        REQUIRE(st.step(traj, h).ok());
+        const double H = scene.energy(traj);
+        dH = std::max(dH, std::abs(H - H0) / std::abs(H0));
+        dmu = std::max(dmu, std::abs(scene.momentum_map(traj) - mu0) / std::max(std::abs(mu0), pi0.norm()));
+        dpi = std::max(dpi, (scene.spatial_momentum(traj) - pi0).norm() / pi0.norm());
+        rise = std::max(rise, (H - H_prev) / std::abs(H0));
+        H_prev = H;
+        const auto R = traj.rotation.matrix();
+        orth = std::max(orth, trompo_test::max_abs(R.transpose() * R - Eigen::Matrix3d::Identity()));
+      }
+      INFO("max |dH/H| " << dH << ", |dmu|/|pi| " << dmu << ", |dpi|/|pi| " << dpi << ", largest rise of H " << rise
+                         << ", |R^T R - I| " << orth);
+      CHECK(orth <= 1e-13);
+      if (kept.energy) CHECK(dH <= 1e-12);
+      if (kept.momentum_map) CHECK(dmu <= 1e-12);
+      if (kept.spatial_momentum) CHECK(dpi <= 1e-12);
+      if (kept.energy_decays) CHECK(rise <= 1e-14);
+    });
+  }
+}
+}  // namespace
+
+TEMPLATE_LIST_TEST_CASE("registry: each declared invariant kept to 1e-12 over 400 steps on HT1 (h = 0.005) and FB1 (h = 0.02)",
+                        "[properties][invariants]", Entries) {
+  check_kept<TestType>(cases::ht1<double>(), 0.005, 400);
+  check_kept<TestType>(cases::fb1<double>(), 0.02, 400);
+}
+
+namespace {
+/// N = 400 steps of h in Scalar on a case: the kept invariants to 16 sqrt(N) eps (a random
+/// walk of round-off; measured up to 9 sqrt(N) eps: splitting's π on FB1 in float), and the
+/// end state within `tol` of the double run.
+template <class Entry, class Scalar, class Case, class CaseD>
+void check_scalar([[maybe_unused]] const Case& c, [[maybe_unused]] const CaseD& cd, [[maybe_unused]] double h,
+                  [[maybe_unused]] double tol) {
+  using SceneT = typename Case::SceneT;
+  if constexpr (Entry::template steps<SceneT>) {
+    using S = typename Entry::Scheme;
+    const long n = 400;
+    const Stepper<S, SceneT> st(S{}, c.scene);
+    const Stepper<S, typename CaseD::SceneT> sd(S{}, cd.scene);
+    auto traj = st.start(c.initial);
+    auto trajd = sd.start(cd.initial);
+    const Scalar H0 = c.scene.energy(traj), mu0 = c.scene.momentum_map(traj);
+    const auto pi0 = c.scene.spatial_momentum(traj);
+    double dH = 0, dmu = 0, dpi = 0;
+    for (long k = 0; k < n; ++k) {
+      REQUIRE(st.step(traj, static_cast<Scalar>(h)).ok());
+      REQUIRE(sd.step(trajd, h).ok());
+      using std::abs;
+      dH = std::max(dH, static_cast<double>(abs(c.scene.energy(traj) - H0) / abs(H0)));
+      dmu = std::max(dmu, static_cast<double>(abs(c.scene.momentum_map(traj) - mu0) / pi0.norm()));
+      dpi = std::max(dpi, static_cast<double>((c.scene.spatial_momentum(traj) - pi0).norm() / pi0.norm()));
+    }
+    const double eps = static_cast<double>(std::numeric_limits<Scalar>::epsilon());
+    const double bound = 16 * std::sqrt(double(n)) * eps;
+    const double dW = (traj.omega.template cast<double>() - trajd.omega).norm() / trajd.omega.norm();
+    const Keeps kept = keeps<SceneT>(S{});
+    INFO("scheme " << Entry::name << " on " << c.name << ", eps " << eps << ": max |dH/H| " << dH << ", |dmu|/|pi| "
+                   << dmu << ", |dpi|/|pi| " << dpi << " (bound " << bound << "), |Omega - Omega_double|/|Omega| " << dW);
+    if (kept.energy) CHECK(dH <= bound);
+    if (kept.momentum_map) CHECK(dmu <= bound);
+    if (kept.spatial_momentum) CHECK(dpi <= bound);
+    CHECK(dW <= tol);
+  }
+}
+}  // namespace
+
+TEMPLATE_LIST_TEST_CASE("registry: float and long double keep what the scheme keeps to their own epsilon and follow the double run",
+                        "[properties][scalar]", Entries) {
+  check_scalar<TestType, float>(cases::ht1<float>(), cases::ht1<double>(), 1e-3, 1e-3);
+  check_scalar<TestType, float>(cases::fb1<float>(), cases::fb1<double>(), 0.02, 1e-3);
+  check_scalar<TestType, long double>(cases::ht1<long double>(), cases::ht1<double>(), 1e-3, 1e-11);
+  check_scalar<TestType, long double>(cases::fb1<long double>(), cases::fb1<double>(), 0.02, 1e-11);
+}
+

@@ -8,7 +8,7 @@
 //  - tiny increments, |Θ| from 1e-4 down to exactly 0 (a top at rest upright, hanging);
 //  - the sleeping top (ρ = 0 in [T2]); HT2; FB1;
 //  - inertia ratios J3/J1 = 1e-3 and 1e3, the disk limit J1 + J2 = J3;
-//  - (backward integration, float and long double: tests/test_scheme_properties.cpp).
+//  - (backward integration, float and long double: tests/test_properties_*.cpp).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -373,5 +373,5 @@ TEMPLATE_TEST_CASE("inertia ratios 1e-3 and 1e3, and the disk limit J1 + J2 = J3
 }
 
 // Backward integration (h < 0, forward and back), float and long double: the generic
-// property suite over the registry (test_scheme_properties.cpp) checks them for every
+// property suite over the registry (test_properties_*.cpp) checks them for every
 // scheme and its compositions.

@@ -315,7 +315,7 @@ TEMPLATE_TEST_CASE("Observed order: Lambda and Omega vs closed-form reference in
 
 // =====================================================================================
 // Symmetry (h then −h), reversibility (forward and back), float and long double: the
-// generic property suite over the registry (test_scheme_properties.cpp) checks them for
+// generic property suite over the registry (test_properties_*.cpp) checks them for
 // every scheme and its compositions; here stays the check that symmetry is a real property.
 TEST_CASE("Symmetry is a real check: Simo-alpha 0.3 does not return after h, -h (|dLambda| > 1e-9 on HT1)", "[symmetry]") {
   const auto c = cases::ht1<double>();

@@ -1,7 +1,7 @@
 #pragma once
 // The scheme registry: the one list from which every tool takes its schemes: the CLI
 // and the Python module (tools/simulate), trompo-invariants, the bench, the fuzzer and
-// the generic property tests (tests/test_scheme_properties.cpp). Adding a scheme to all of
+// the generic property tests (tests/test_properties_*.cpp). Adding a scheme to all of
 // them is one line in `RegisteredSchemes` below (plus, for a scheme with parameters, its
 // CLI flags in tools/simulate).
 //
@@ -21,8 +21,8 @@
 //
 // A test build may append schemes with the compile definitions TROMPO_EXTRA_SCHEMES_HEADER
 // (a header to include) and TROMPO_EXTRA_SCHEMES (entries, each preceded by a comma):
-// tests/CMakeLists.txt builds the CLI and the generic tests so with the scheme of
-// examples/own_scheme.hpp, and checks it appears in both with no other edit.
+// tests/CMakeLists.txt builds the generic tests so with the scheme of examples/own_scheme.hpp
+// (and, with TROMPO_CHECK_OWN_SCHEME, the CLI), and checks it appears with no other edit.
 #include <cstddef>
 #include <tuple>
 #include <string_view>

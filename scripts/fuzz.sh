@@ -2,7 +2,7 @@
 # Bounded libFuzzer run of the step contract (fuzz/fuzz_check.hpp, target fuzz/fuzz_step.cpp)
 # with AddressSanitizer and UndefinedBehaviorSanitizer, built by Debian's clang.
 #
-#   scripts/fuzz.sh            # build, replay fuzz/corpus, then fuzz for 45 s (≤ 60 s)
+#   scripts/fuzz.sh            # build, replay fuzz/corpus, then fuzz for 30 s
 #   scripts/fuzz.sh --merge    # then merge the new coverage into fuzz/corpus (to commit)
 #   TROMPO_FUZZ_SECONDS=600 scripts/fuzz.sh --merge   # a longer campaign
 #
@@ -11,7 +11,7 @@
 # it into fuzz/corpus once fixed (tests/test_fuzz_corpus.cpp replays the whole corpus).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds=${TROMPO_FUZZ_SECONDS:-45}
+seconds=${TROMPO_FUZZ_SECONDS:-30}
 merge=0
 [ "${1:-}" = "--merge" ] && merge=1
 out=build/fuzz

@@ -43,7 +43,7 @@ class Rotor {
   /// Nothing to keep per step. One initialised byte all the same: GCC 12 at -O1 takes an
   /// empty object passed by reference for "may be used uninitialized" (-Wmaybe-uninitialized).
   struct Cache {
-    char unused = 0;
+    char unused = 0;  ///< the initialised byte
   };
   /// Nothing to prepare per step.
   Cache cache(const Matrix3& /*Lambda_n*/, Scalar /*t_mid*/) const { return {}; }

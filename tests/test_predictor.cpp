@@ -177,7 +177,7 @@ TEST_CASE("history predictor: a misleading history falls back to the memoryless 
   check(GeradinBauchau{});
 }
 
-TEST_CASE("history predictor: H and mu as exact as memoryless steps (HT1, 2e5 steps of 1e-3; 5e4 under the sanitizers)",
+TEST_CASE("history predictor: H and mu as exact as memoryless steps (HT1, 2e5 steps of 1e-3, 5e4 under the sanitizers)",
           "[predictor][invariants]") {
   const auto ht1 = cases::ht1<double>();
 #ifdef TROMPO_SANITIZED

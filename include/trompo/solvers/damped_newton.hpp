@@ -5,7 +5,7 @@
 // residual fixed every case measured).
 //
 // Fixed size N (3 for gen-α and the energy-decaying scheme, 4 for the constrained
-// trapezoid): fixed-size Eigen matrices and a fixed-size LU, no heap.
+// trapezoid): fixed-size Eigen matrices and a fixed-size LU (small_lu.hpp), no heap.
 //
 // The residual is judged in the weighted max-norm r = max_i |R_i|/W_i, with weights W
 // fixed for the step (the natural scale of each row, so that every row is resolved to
@@ -25,12 +25,12 @@
 // this never failed); the iteration cap ends a hopeless solve.
 // Nothing throws.
 #include <Eigen/Core>
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "trompo/solvers/newton.hpp"
+#include "trompo/solvers/small_lu.hpp"
 
 namespace trompo::detail {
 
@@ -119,12 +119,15 @@ StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, co
       rep.status = StepStatus::not_converged;
       return rep;
     }
-    const Eigen::PartialPivLU<MatrixN> lu(K);
+    // δ from the rows scaled by their weights, (W⁻¹K) δ = −W⁻¹R: the same δ in exact
+    // arithmetic, but pivots chosen among rows of one scale. Unscaled, a body with
+    // J₃ = 10⁻³ J₁ stalled 8–17 ε·x_scale from the root and missed the stall test below.
+    const SmallLU<N, Scalar> lu(W.cwiseInverse().asDiagonal() * K);
     if (!(lu.rcond() > Scalar(16) * eps)) {
       rep.status = StepStatus::singular_tangent;
       return rep;
     }
-    const VectorN dx = -lu.solve(R);
+    const VectorN dx = -lu.solve(R.cwiseQuotient(W));
     ++rep.iterations;
     // Armijo backtracking on the weighted 2-norm.
     const Scalar n0 = norm2(R);

@@ -25,22 +25,20 @@
 
 namespace trompo_test::properties {
 
-using namespace trompo;
-
-using Entries = RegisteredSchemes::Tuple;
+using Entries = trompo::RegisteredSchemes::Tuple;
 
 /// Calls f(stepper, order, label) for each stepper of registry entry Entry on `scene`: the
 /// plain Stepper and, where the registry lets the tools compose it, ComposedStepper with
 /// Suzuki-5 (order 4) and the ProcessedStepper (order 6).
 template <class Entry, class SceneT, class F>
-void for_each_stepper(const SceneT& scene, F&& f, NewtonOptions<typename SceneT::Scalar> options = {}) {
+void for_each_stepper(const SceneT& scene, F&& f, trompo::NewtonOptions<typename SceneT::Scalar> options = {}) {
   using S = typename Entry::Scheme;
   const S scheme{};
-  f(Stepper<S, SceneT>(scheme, scene, options), order_of_accuracy(scheme), "plain");
-  if constexpr (Entry::compositions == Compositions::symmetric) {
-    if (symmetric(scheme)) {
-      f(ComposedStepper<S, SceneT>(scheme, scene, Composition::suzuki5, options), 4, "suzuki-5");
-      f(ProcessedStepper<S, SceneT>(scheme, scene, options), 6, "blanes-casas-murua-13");
+  f(trompo::Stepper<S, SceneT>(scheme, scene, options), trompo::order_of_accuracy(scheme), "plain");
+  if constexpr (Entry::compositions == trompo::Compositions::symmetric) {
+    if (trompo::symmetric(scheme)) {
+      f(trompo::ComposedStepper<S, SceneT>(scheme, scene, trompo::Composition::suzuki5, options), 4, "suzuki-5");
+      f(trompo::ProcessedStepper<S, SceneT>(scheme, scene, options), 6, "blanes-casas-murua-13");
     }
   }
 }
@@ -50,7 +48,7 @@ void for_each_stepper(const SceneT& scene, F&& f, NewtonOptions<typename SceneT:
 /// identity there).
 template <class St>
 bool symmetric_stepper(const St& st, const char* label) {
-  return symmetric(st.scheme()) && std::string(label) != "blanes-casas-murua-13";
+  return trompo::symmetric(st.scheme()) && std::string(label) != "blanes-casas-murua-13";
 }
 
 /// ‖Λ − Λref‖_F + ‖Ω − Ωref‖/‖Ωref‖ against a reference row.

@@ -282,7 +282,15 @@ class FreeBody {
     steady_ = P0_.cross(Omega0).isZero(0.0);  // JΩ0 ∥ Ω0: a steady spin
     if (steady_) return;
     period_ = flow_.period(P0_);
-    if (!std::isfinite(period_)) return;
+    if (!std::isfinite(period_)) {
+      // The separatrix (no period): the time after which Π lies on the middle axis (advance).
+      t_axis_ = 80.0 / std::abs(flow_.invariants(P0_).lambda);
+      Eigen::Index imin = 0, imax = 0;
+      J_.minCoeff(&imin);
+      J_.maxCoeff(&imax);
+      mid_ = 3 - imin - imax;
+      return;
+    }
     // After one period Π returns and Λ(t + T) = R Λ(t), R a rotation about π by ψ_T.
     Eigen::Quaterniond q = q0_;
     Eigen::Vector3d P = P0_;
@@ -336,17 +344,13 @@ class FreeBody {
     // is the steady spin about it, Π = ±G e_mid. One call of the flow takes it there (160
     // panels at most): running it further, or in several calls, would feed round-off into
     // the unstable equilibrium, where it grows as e^{|λ|t}.
-    const double t_axis = 80.0 / std::abs(flow_.invariants(P0_).lambda);
-    if (!(std::abs(r) > t_axis)) {
+    if (!(std::abs(r) > t_axis_)) {
       flow_.advance(q, P, r);
       return n;
     }
-    const double dt = std::copysign(t_axis, r);
+    const double dt = std::copysign(t_axis_, r);
     flow_.advance(q, P, dt);
-    Eigen::Index imin = 0, imax = 0;
-    J_.minCoeff(&imin);
-    J_.maxCoeff(&imax);
-    const Eigen::Index mid = 3 - imin - imax;
+    const Eigen::Index mid = mid_;
     const double Pmid = std::copysign(P0_.norm(), P(mid));  // Π = ±G e_mid
     P = Eigen::Vector3d::Zero();
     P(mid) = Pmid;
@@ -363,6 +367,8 @@ class FreeBody {
   Eigen::Vector3d P0_ = Eigen::Vector3d::Zero();
   bool steady_ = false;
   double period_ = std::numeric_limits<double>::infinity();
+  double t_axis_ = 0;     // separatrix: 80/|λ|, past which Π is on the middle axis
+  Eigen::Index mid_ = 1;  // separatrix: the middle axis of J
   double psi_T_ = 0.0;
   Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();
 };

@@ -11,16 +11,24 @@
 # Usage: scripts/report.sh [extra trompo-bench flags, e.g. --benchmark_filter=ht1]
 #        TROMPO_UPDATE_DOCS=1 scripts/report.sh   also copies the plots to docs/img/ and
 #        report/accuracy.md over docs/accuracy.md
+#        TROMPO_REPORT_CONFIGURE_ONLY=1 TROMPO_REPORT_BUILD_DIR=DIR scripts/report.sh
+#                                                 configures the bench build in DIR and stops
+#                                                 (ctest's report:configure: the main job's
+#                                                 configuration cannot break unseen)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=report
-build=build/report
+build=${TROMPO_REPORT_BUILD_DIR:-build/report}
 
 scripts/deps.sh python3-matplotlib
 
 echo "== build trompo-bench (Release)"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTROMPO_BUILD_TESTS=OFF -DTROMPO_BUILD_EXAMPLES=OFF -DTROMPO_BUILD_TOOLS=OFF \
   -DTROMPO_BUILD_BENCH=ON >/dev/null
+if [ "${TROMPO_REPORT_CONFIGURE_ONLY:-0}" = 1 ]; then
+  echo "   configured in $build (TROMPO_REPORT_CONFIGURE_ONLY)"
+  exit 0
+fi
 cmake --build "$build" --target trompo-bench -j"$(nproc)"
 
 # Copies Google Benchmark's console output (stdin) to the file $1, unchanged, and prints one

@@ -32,6 +32,7 @@ namespace {
 
 using trompo::EulerPoinsot;
 using trompo::JacobiModulus;
+using trompo::JacobiSeries;
 using ld = long double;
 template <class S>
 using V3 = Eigen::Matrix<S, 3, 1>;
@@ -153,6 +154,64 @@ TEST_CASE("free flow: sn, cn, dn and 1 − cn, 1 − dn against Boost.Math (long
   CHECK(worst_large <= 1e-12);  // |u| up to 12: the direct ascent near m → 1 amplifies
 }
 #endif
+
+#ifdef TROMPO_HAVE_BOOST
+TEST_CASE("free flow: the Maclaurin series of sn, cn, dn (small increments) against Boost.Math (long double)",
+          "[free_flow][jacobi]") {
+  // Where the flow uses it, |u| ≤ 1/8, at every m from 0 to the separatrix: sn, cn, dn to a
+  // few ulp, 1 − cn and 1 − dn to a few ulp relative; in long double, to its own ε.
+  const double umax = double(JacobiSeries<double>::max_argument);
+  double worst = 0, worst_comp = 0, worst_ld = 0;
+  for (ld mc : {1.0L, 0.9L, 0.5L, 0.1L, 1e-3L, 1e-9L, 1e-18L, 0.0L}) {
+    const ld m = 1 - mc;
+    const JacobiSeries<double> series{double(m)};
+    const JacobiSeries<ld> series_ld{m};
+    for (ld u = -umax; u <= umax; u += ld(umax) / 37) {
+      const auto r = series(double(u));
+      const auto rl = series_ld(u);
+      ld cn, dn, sn;
+      if (mc == 0) {
+        sn = std::tanh(u), cn = dn = 1 / std::cosh(u);
+      } else {
+        sn = boost::math::jacobi_elliptic(std::sqrt(ld(double(m))), ld(double(u)), &cn, &dn);
+      }
+      worst = std::max(worst, double(std::max({std::fabs(sn - ld(r.sn)), std::fabs(cn - ld(r.cn)), std::fabs(dn - ld(r.dn))})));
+      // 1 − cn = sn²/(1 + cn) and 1 − dn = m sn²/(1 + dn): no cancellation in the reference
+      // (1 − cn in long double would lose relative digits at small u)
+      const ld cbar = sn * sn / (1 + cn), dbar = ld(double(m)) * sn * sn / (1 + dn);
+      if (cbar > 1e-300L) worst_comp = std::max(worst_comp, double(std::fabs(cbar - ld(r.one_minus_cn)) / cbar));
+      if (dbar > 1e-300L) worst_comp = std::max(worst_comp, double(std::fabs(dbar - ld(r.one_minus_dn)) / dbar));
+      ld cl, dl, sl;  // long double: at m itself, not rounded to double
+      if (mc == 0) {
+        sl = std::tanh(u), cl = dl = 1 / std::cosh(u);
+      } else {
+        sl = boost::math::jacobi_elliptic(std::sqrt(m), u, &cl, &dl);
+      }
+      worst_ld = std::max(worst_ld, double(std::max({std::fabs(sl - rl.sn), std::fabs(cl - rl.cn), std::fabs(dl - rl.dn)})));
+    }
+  }
+  std::printf("sncndn series vs Boost, |u| <= %g: double abs %.2e, complements rel %.2e; long double abs %.2e\n", umax,
+              worst, worst_comp, worst_ld);
+  CHECK(worst <= 4 * std::numeric_limits<double>::epsilon());
+  CHECK(worst_comp <= 8 * std::numeric_limits<double>::epsilon());
+  CHECK(worst_ld <= 8 * double(std::numeric_limits<ld>::epsilon()));
+}
+#endif
+
+TEST_CASE("free flow: the Maclaurin series and the Landen ladder agree where both apply", "[free_flow][jacobi]") {
+  double worst = 0;
+  for (double mc : {1.0, 0.7, 0.3, 1e-4, 1e-12, 0.0}) {
+    const JacobiModulus<double> L(1 - mc, mc);
+    const JacobiSeries<double> series(1 - mc);
+    for (double u = -0.125; u <= 0.125; u += 0.125 / 29) {
+      const auto a = series(u);
+      const auto b = trompo::jacobi_sncndn(L, u);
+      worst = std::max({worst, std::abs(a.sn - b.sn), std::abs(a.cn - b.cn), std::abs(a.dn - b.dn)});
+    }
+  }
+  INFO("largest difference " << worst);
+  CHECK(worst <= 4 * std::numeric_limits<double>::epsilon());
+}
 
 TEMPLATE_TEST_CASE("free flow: the Jacobi identities hold to round-off", "[free_flow][jacobi]", float, double,
                    long double) {

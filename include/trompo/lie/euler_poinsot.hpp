@@ -9,7 +9,7 @@
 //
 // One call reads the phase (sn, cn, dn)(u₀) off Π [F4] (no complete elliptic integral, no
 // amplitude), advances it by the addition theorems with (sn, cn, dn) of the increment only
-// [F5], writes Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π|
+// [F5] (a Maclaurin series for small increments, the Landen ladder otherwise), writes Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π|
 // by about an ulp per step), and turns the attitude by the minimal rotations a(Π) and the
 // precession angle ψ, integrated by 7-point Gauss–Legendre on panels |λ|h_p ≤ ½ [F6]; after
 // each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
@@ -253,10 +253,18 @@ class EulerPoinsot {
     const long panels = span > Scalar(1) ? long(ceil(span)) : 1L;
     const Scalar hp = h / Scalar(panels);
     const Scalar v = Scalar(0.5) * ph.lambda * hp;  // the half-panel increment of u
-    const JacobiModulus<Scalar> L(m, ph.mc);
-    const JacobiValues<Scalar> half = jacobi_sncndn(L, v);
-    JacobiValues<Scalar> node[3];
-    for (int i = 0; i < 3; ++i) node[i] = jacobi_sncndn(L, v * GL::x[i]);
+    // (sn, cn, dn) of the half-panel and of the Gauss nodes' offsets: by the Maclaurin
+    // series in m where the increment is small (ordinary steps), else by the Landen ladder.
+    JacobiValues<Scalar> half, node[3];
+    if (abs(v) <= JacobiSeries<Scalar>::max_argument) {
+      const JacobiSeries<Scalar> series(m);
+      half = series(v);
+      for (int i = 0; i < 3; ++i) node[i] = series(v * GL::x[i]);
+    } else {
+      const JacobiModulus<Scalar> L(m, ph.mc);
+      half = jacobi_sncndn(L, v);
+      for (int i = 0; i < 3; ++i) node[i] = jacobi_sncndn(L, v * GL::x[i]);
+    }
 
     Scalar s = ph.s, c = ph.c, d = ph.d;
     Scalar Q1 = ph.P1, Q2 = ph.P2, Q3 = ph.P3;  // Π in slots, advanced by increments

@@ -9,8 +9,9 @@
 //
 // One call reads the phase (sn, cn, dn)(u₀) off Π [F4] (no complete elliptic integral, no
 // amplitude), advances it by the addition theorems with (sn, cn, dn) of the increment only
-// [F5] (a Maclaurin series for small increments, the Landen ladder otherwise), writes Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π|
-// by about an ulp per step), and turns the attitude by the minimal rotations a(Π) and the
+// [F5] (a Maclaurin series for small increments, the Landen ladder otherwise), writes
+// Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π| by about an
+// ulp per step), and turns the attitude by the minimal rotations a(Π) and the
 // precession angle ψ, integrated by 7-point Gauss–Legendre on panels |λ|h_p ≤ ½ [F6]; after
 // each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
 // dn² = m' + m cn² (chained additions are unstable next to the separatrix). The quaternion

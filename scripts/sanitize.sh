@@ -53,5 +53,5 @@ fi
 if [ "$what" != build ]; then
   export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:strict_string_checks=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-  ctest --test-dir "$build" --output-on-failure -j"$jobs" -E '^package:'
+  ctest --test-dir "$build" --output-on-failure -j"$jobs" -E '^(package|report):'
 fi

@@ -177,7 +177,7 @@ class JacobiSeries {
   static constexpr Scalar max_argument = Scalar(0.125);  ///< the largest |u| it is used for
 
   /// The coefficients at parameter m = k² ∈ [0, 1].
-  explicit JacobiSeries(Scalar m) : m_(m) {
+  explicit JacobiSeries(Scalar m) {
     for (int j = 0; j < terms; ++j) {
       s_[j] = horner(sn_[j], j + 1, m);
       c_[j] = horner(cn_[j], j + 1, m);
@@ -202,9 +202,6 @@ class JacobiSeries {
     r.dn = Scalar(1) - r.one_minus_dn;
     return r;
   }
-
-  /// The parameter m.
-  Scalar parameter() const { return m_; }
 
  private:
   static Scalar horner(const Scalar* p, int n, Scalar m) {
@@ -249,7 +246,6 @@ class JacobiSeries {
       {Scalar(0.000000000000000000000e+21L), Scalar(1.023620347893266937428e-11L), Scalar(1.676664539340473911833e-7L), Scalar(1.486223492309877481230e-5L), Scalar(1.222877654647893607675e-4L), Scalar(1.820158438270189143378e-4L), Scalar(5.397351574070718518621e-5L), Scalar(2.312315206898194414188e-6L), Scalar(3.781999788349859242414e-9L), Scalar(1.561920696858622646222e-16L)},
   };
 
-  Scalar m_;
   Scalar s_[terms], c_[terms], d_[terms];
 };
 

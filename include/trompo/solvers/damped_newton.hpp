@@ -76,6 +76,7 @@ StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, co
   using MatrixN = Eigen::Matrix<Scalar, N, N>;
   constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
   const VectorN& W = solve.weights;
+  const VectorN W_inv = W.cwiseInverse();  // the row scaling of the linear solves
   MatrixN* const tangent = solve.tangent;
   const Scalar size = solve.x_scale + tiny_scale<Scalar>();
   StepReport<Scalar> rep;
@@ -122,7 +123,7 @@ StepReport<Scalar> damped_newton(Eval&& eval, Eigen::Matrix<Scalar, N, 1>& x, co
     // δ from the rows scaled by their weights, (W⁻¹K) δ = −W⁻¹R: the same δ in exact
     // arithmetic, but pivots chosen among rows of one scale. Unscaled, a body with
     // J₃ = 10⁻³ J₁ stalled 8–17 ε·x_scale from the root and missed the stall test below.
-    const SmallLU<N, Scalar> lu(W.cwiseInverse().asDiagonal() * K);
+    const SmallLU<N, Scalar> lu(W_inv.asDiagonal() * K);
     if (!(lu.rcond() > Scalar(16) * eps)) {
       rep.status = StepStatus::singular_tangent;
       return rep;

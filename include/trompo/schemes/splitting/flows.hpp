@@ -71,34 +71,14 @@ constexpr SubFlowKind sub_flow_of() {
   else return SubFlowKind::none;
 }
 
-/// What the splitting remembers per trajectory (its Memory): the working frame of
-/// [S1]/[S8] in compact form (Q, the moments, the rotor momentum and the damping), found on
-/// the first step. Kept small because the Stepper copies the memory on every step; the
-/// derived constants are expanded per step by SplittingFrame::expand (a few operations).
-template <class Scalar>
-struct SplittingMemory {
-  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  using Quaternion = Eigen::Quaternion<Scalar>;
-  bool ready = false;     ///< false in fresh memory: built on the first step
-  bool identity = true;   ///< Q = I
-  Quaternion Q = Quaternion::Identity();  ///< working → user body frame
-  Vector3 J = Vector3::Ones();            ///< principal moments (J_b, J_a, J_s)
-  Vector3 J_inv = Vector3::Ones();        ///< their inverses (kept: no division per step)
-  Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
-  Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
-  Scalar energy = Scalar(0);              ///< H of the trajectory's first state (projection [S12])
-  EulerPoinsot<Scalar> free;              ///< the exact free flow of an asymmetric body [F1]–[F7]
-};
-
 /// The working frame of [S1]/[S8] and the constants of the sub-flows, computed once per
-/// trajectory from the scene's inertia and rotor (SplittingMemory) and expanded per step.
+/// trajectory from the scene's inertia and rotor, on its first step (SplittingMemory).
 template <class Scalar>
 struct SplittingFrame {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   using Quaternion = Eigen::Quaternion<Scalar>;
 
-  bool ready = false;          ///< false in fresh memory: built on the first step
   bool identity = true;        ///< Q = I: the user's body axes are the working axes
   Quaternion Q = Quaternion::Identity();  ///< working → user body frame (Λ_w = Λ Q)
   Matrix3 Qm = Matrix3::Identity();       ///< Q as a matrix
@@ -112,17 +92,23 @@ struct SplittingFrame {
   Vector3 rotor_axis = Vector3::UnitZ();  ///< unit axis of w = −J⁻¹h_r   [S13]
   Scalar rotor_rate = Scalar(0);          ///< |w|; 0: no rotor flow
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
-  /// The exact free flow of an asymmetric body without rotor ([F1]–[F7], in the memory);
-  /// null for a symmetric body (S is exact) or with a rotor (no exact free flow).
-  const EulerPoinsot<Scalar>* exact_free = nullptr;
+  /// Whether `free` is the free flow: an asymmetric body without rotor. A symmetric body
+  /// has S exact instead; a rotor's gyrostat term has no exact free flow.
+  bool exact_free = false;
+  /// The exact free flow of an asymmetric body ([F1]–[F7]), its constants built once here.
+  EulerPoinsot<Scalar> free;
 
   /// The free symmetric flow [S2] alone is the exact free flow (Chin's T): symmetric body
   /// and no rotor term.
   bool free_flow_exact() const { return k_b == Scalar(0) && rotor_rate == Scalar(0); }
 
   /// Builds the frame of a scene: principal axes, then s, a, b by [S1]/[S8].
+  /// any_order: the step uses no S or A sub-flow on an asymmetric body (Chin's and the
+  /// near-integrable methods, or a torque-free scene), whose exact free flow [F1]–[F7] takes
+  /// the moments in any order; a diagonal inertia then keeps the user's axes (Q = I), and
+  /// the step converts nothing (FB1: 15 % of its step).
   template <class Scene>
-  static SplittingFrame of(const Scene& scene) {
+  static SplittingFrame of(const Scene& scene, bool any_order = false) {
     SplittingFrame f;
     const auto& body = scene.body();
     Vector3 m;
@@ -148,6 +134,8 @@ struct SplittingFrame {
       s = 1, a = 2, b = 0;
     } else if (equal(1, 2)) {
       s = 0, a = 2, b = 1;
+    } else if (any_order && body.is_diagonal() && !has_rotor_momentum(scene)) {
+      s = 2, a = 1, b = 0;  // the exact free flow and the kicks need no particular order
     } else {
       // Asymmetric [S8]: J_a the intermediate moment (smallest leading commutator); of the
       // two extremes, s is the one farther from J_a in 1/J, so that the asymmetric
@@ -188,55 +176,34 @@ struct SplittingFrame {
       if (f.rotor_rate > Scalar(0)) f.rotor_axis = w / f.rotor_rate;
     }
     std::apply([&](const auto&... e) { ((f.add_damping(e)), ...); }, scene.effects());
-    f.ready = true;
-    return f;
-  }
-
-  /// The compact form kept in the memory.
-  SplittingMemory<Scalar> compact() const {
-    SplittingMemory<Scalar> m;
-    m.ready = ready;
-    m.identity = identity;
-    m.Q = Q;
-    m.J = J;
-    m.J_inv = J_inv;
-    m.h_r = h_r;
-    m.damping = damping;
-    if (k_b != Scalar(0) && rotor_rate == Scalar(0)) m.free = EulerPoinsot<Scalar>(J);
-    return m;
-  }
-
-  /// The frame from its compact form: Qm, Qᵀ (unless Q = I), 1/J, c_s, k_b, the rotor axis.
-  static SplittingFrame expand(const SplittingMemory<Scalar>& m) {
-    SplittingFrame f;
-    f.ready = m.ready;
-    f.identity = m.identity;
-    f.Q = m.Q;
-    if (!m.identity) {
-      f.Qm = m.Q.toRotationMatrix();
-      f.Qt = f.Qm.transpose();
+    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0)) {
+      f.exact_free = true;
+      f.free = EulerPoinsot<Scalar>(f.J);
     }
-    f.J = m.J;
-    f.J_inv = m.J_inv;
-    f.Ja_inv = f.J_inv(1);
-    f.c_s = f.J_inv(2) - f.J_inv(1);
-    f.k_b = m.J(0) == m.J(1) ? Scalar(0) : f.J_inv(0) - f.J_inv(1);
-    f.h_r = m.h_r;
-    if (m.h_r != Vector3::Zero()) {
-      const Vector3 w = -f.J_inv.cwiseProduct(f.h_r);  // [S13] w = −J⁻¹h_r
-      f.rotor_rate = w.norm();
-      if (f.rotor_rate > Scalar(0)) f.rotor_axis = w / f.rotor_rate;
-    }
-    f.damping = m.damping;
-    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0)) f.exact_free = &m.free;  // lives in the memory
     return f;
   }
 
  private:
+  template <class Scene>
+  static bool has_rotor_momentum(const Scene& scene) {
+    if constexpr (Scene::has_rotor) return scene.rotor_momentum() != Vector3::Zero();
+    else return false;
+  }
   template <class E>
   void add_damping(const E& e) {
     if constexpr (is_damping_v<E>) damping += e.coefficient();
   }
+};
+
+/// What the splitting remembers per trajectory (its Memory): the working frame with the
+/// constants of every sub-flow, and the first energy, found on the first step. The scheme
+/// writes it on a successful step only (writes_memory_on_success), so the Stepper steps it
+/// in place: it is read per step, never copied or rebuilt.
+template <class Scalar>
+struct SplittingMemory {
+  bool ready = false;              ///< false in fresh memory: built on the first step
+  SplittingFrame<Scalar> frame;    ///< the working frame and the sub-flows' constants
+  Scalar energy = Scalar(0);       ///< H of the trajectory's first state (projection [S12])
 };
 
 /// q ← q ⊗ (c, sn e_K): right product with a rotation about working axis K, written out.
@@ -309,7 +276,7 @@ inline void flow_asymmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>&
 /// clock advances here, as in S.
 template <class Scalar>
 inline void flow_exact_free(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
-  f.exact_free->advance(x.q, x.P, t);
+  f.free.advance(x.q, x.P, t);
   x.t += t;
 }
 

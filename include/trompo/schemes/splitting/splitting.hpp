@@ -218,6 +218,7 @@ struct SplittingScheme {
           },
       .keeps_jacobi_integral = EnergyProjection,
       .memory = MemoryUse::carried,
+      .writes_memory_on_success = true,
       .refined = true};
   /// Whether the energy projection [S12] runs after each step.
   static constexpr bool energy_projection = EnergyProjection;
@@ -288,15 +289,38 @@ struct SplittingScheme {
                   "splitting: the energy projection [S12] needs a conservative scene (potentials and rotors "
                   "only): with applied torques or damping there is no conserved H to project on");
     using Scalar = typename Scene::Scalar;
+    if (memory.ready) return step_in_frame(scene, memory.frame, in, h, out, memory.energy, false);
+    // A fresh memory: the frame is built here and committed with a successful step only
+    // (writes_memory_on_success); afterwards every step reads it in place.
+    const bool no_s_or_a = is_chin(method) || is_near_integrable(method) || (!Effects::has_kick && !Effects::has_damping);
+    const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::of(scene, no_s_or_a);
+    Scalar H0 = Scalar(0);
+    const StepReport<Scalar> rep = step_in_frame(scene, f, in, h, out, H0, true);
+    if (rep.ok()) {
+      memory.frame = f;
+      memory.energy = H0;
+      memory.ready = true;
+    }
+    return rep;
+  }
+
+ private:
+  /// The step in the working frame f; H0 is the trajectory's first energy, computed here
+  /// when `fresh` (the energy projection aims at it).
+  template <class Scene>
+  StepReport<typename Scene::Scalar> step_in_frame(const Scene& scene,
+                                                   const detail::SplittingFrame<typename Scene::Scalar>& f,
+                                                   const State<typename Scene::Scalar>& in, typename Scene::Scalar h,
+                                                   State<typename Scene::Scalar>& out, typename Scene::Scalar& H0,
+                                                   bool fresh) const {
+    using Effects = detail::splitting_effects_of<Scene>;
+    using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     StepReport<Scalar> rep;
     if ((is_chin(method) || is_near_integrable(method)) && !Effects::conservative) {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
-    const bool fresh = !memory.ready;
-    if (fresh) memory = detail::SplittingFrame<Scalar>::of(scene).compact();
-    const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::expand(memory);
     if (is_near_integrable(method) && !f.free_flow_exact() && !f.exact_free) {
       rep.status = StepStatus::invalid_step;  // a rotor: check() says why
       return rep;
@@ -312,7 +336,7 @@ struct SplittingScheme {
     // The projection aims at the trajectory's first energy (kept in the memory), not at
     // each step's: the one-update residuals (~ε) then do not accumulate as a random walk.
     if constexpr (EnergyProjection)
-      if (fresh) memory.energy = detail::working_energy(scene, f, x);
+      if (fresh) H0 = detail::working_energy(scene, f, x);
 
     switch (method) {
       case SplittingMethod::strang: {
@@ -354,7 +378,7 @@ struct SplittingScheme {
         if constexpr (Effects::conservative) near_integrable<Scene>(scene, f, x, h, detail::NearIntegrable::of(method));
         break;
     }
-    if constexpr (EnergyProjection) detail::project_energy(scene, f, x, memory.energy);
+    if constexpr (EnergyProjection) detail::project_energy(scene, f, x, H0);
 
     if (!detail::all_finite(x.q.coeffs()) || !detail::all_finite(x.P) || !(x.q.coeffs().cwiseAbs().maxCoeff() > 0)) {
       rep.status = StepStatus::non_finite;
@@ -370,10 +394,12 @@ struct SplittingScheme {
     const Vector3 omega = m.cwiseQuotient(f.J);
     out.omega = f.identity ? omega : Vector3(f.Qm * omega);
     out.time = in.time + h;
+    if (!detail::committable(out)) {  // writes_memory_on_success: the one check of `out`
+      rep.status = StepStatus::non_finite;
+    }
     return rep;
   }
 
- private:
   using FlowId = int;
   static constexpr FlowId damping_flow = 0, kick_flow = 1, rotor_flow = 2, asymmetric_flow = 3;
 

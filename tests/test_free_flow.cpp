@@ -213,6 +213,33 @@ TEST_CASE("free flow: the Maclaurin series and the Landen ladder agree where bot
   CHECK(worst <= 4 * std::numeric_limits<double>::epsilon());
 }
 
+TEST_CASE("free flow: the series cut to the largest argument agrees with the full series", "[free_flow][jacobi]") {
+  // [F5]: rows whose bound at the largest argument is below ε/16 are dropped; the result
+  // must not move by more than round-off, and small arguments must drop rows (the cost).
+  double worst = 0, worst_comp = 0;
+  int last_rows = 0;
+  for (double umax : {1e-4, 1e-3, 0.006, 0.02, 0.05, 0.125}) {
+    for (double mc : {1.0, 0.5, 1e-4, 0.0}) {
+      const JacobiSeries<double> full(1 - mc);
+      const JacobiSeries<double> cut(1 - mc, umax);
+      CHECK(cut.rows() >= last_rows);  // more rows for larger arguments, never fewer
+      for (double u = -umax; u <= umax; u += umax / 17) {
+        const auto a = full(u), b = cut(u);
+        worst = std::max({worst, std::abs(a.sn - b.sn), std::abs(a.cn - b.cn), std::abs(a.dn - b.dn)});
+        if (a.one_minus_cn > 0) worst_comp = std::max(worst_comp, std::abs(a.one_minus_cn - b.one_minus_cn) / a.one_minus_cn);
+        if (a.one_minus_dn > 0) worst_comp = std::max(worst_comp, std::abs(a.one_minus_dn - b.one_minus_dn) / a.one_minus_dn);
+      }
+    }
+    last_rows = JacobiSeries<double>(0.5, umax).rows();
+    if (umax == 0.006) CHECK(last_rows == 4);  // FB1 at h = 0.01: |v| = 0.0058
+  }
+  CHECK(last_rows == 8);                                                // double at |u| = 1/8
+  CHECK(JacobiSeries<ld>(0.5L).rows() == JacobiSeries<ld>::terms);  // long double needs all 9 there
+  INFO("abs " << worst << ", complements rel " << worst_comp);
+  CHECK(worst <= 2 * std::numeric_limits<double>::epsilon());
+  CHECK(worst_comp <= 2 * std::numeric_limits<double>::epsilon());
+}
+
 TEMPLATE_TEST_CASE("free flow: the Jacobi identities hold to round-off", "[free_flow][jacobi]", float, double,
                    long double) {
   using S = TestType;
@@ -269,6 +296,37 @@ TEST_CASE("free flow: one step against a long-double RK4, every branch, lambda*h
   CHECK(saw_large_m);
   std::printf("one step vs long-double RK4 (%zu bodies x 5 lambda*h): |dPi|/|Pi| %.2e, |dLambda| %.2e\n",
               random_bodies().size(), worst_P, worst_L);
+}
+
+TEST_CASE("free flow: each Gauss-Legendre rule holds round-off up to the end of its span", "[free_flow]") {
+  // [F6]: 3 points up to |λ|h ≈ 0.0168, 5 up to ≈ 0.184, 7 above (double). One step on either
+  // side of each switch, and at the extremes, against the long-double flow (whose own
+  // switches sit elsewhere: ε is smaller), on every branch of random_bodies().
+  double worst_P = 0, worst_L = 0;
+  for (const Body& b : random_bodies()) {
+    const EulerPoinsot<double> flow(b.J);
+    const EulerPoinsot<ld> flow_ld(b.J.cast<ld>());
+    const auto inv = flow.invariants(b.Pi);
+    if (flow.symmetric() || !(std::abs(inv.lambda) > 0)) continue;
+    for (double L : {1e-3, 0.0160, 0.0175, 0.175, 0.195, 0.5}) {
+      const double h = L / std::abs(inv.lambda);
+      Quat<double> q(Eigen::AngleAxisd(0.4, V3<double>(2, 1, -0.5).normalized()));
+      V3<double> P = b.Pi;
+      Quat<ld> ql = q.cast<ld>();
+      V3<ld> Pl = P.cast<ld>();
+      flow.advance(q, P, h);
+      for (int k = 0; k < 4; ++k) flow_ld.advance(ql, Pl, ld(h) / 4);
+      const double eP = double((P.cast<ld>() - Pl).norm() / Pl.norm());
+      const double eL = rotation_distance(q.cast<ld>(), ql);
+      worst_P = std::max(worst_P, eP);
+      worst_L = std::max(worst_L, eL);
+      INFO(b.what << " |lambda|h = " << L << " m = " << inv.m << " 1-m = " << inv.mc);
+      CHECK(eP <= 2e-15);
+      CHECK(eL <= 4e-15);
+    }
+  }
+  std::printf("quadrature rules at their edges vs the long-double flow: |dPi|/|Pi| %.2e, |dLambda| %.2e\n", worst_P,
+              worst_L);
 }
 
 TEST_CASE("free flow: a pure spin about each principal axis stays exactly a spin", "[free_flow]") {

@@ -159,6 +159,65 @@ JacobiValues<Scalar> jacobi_sncndn(const JacobiModulus<Scalar>& L, Scalar u) {
   return r;
 }
 
+namespace detail {
+/// The Maclaurin coefficients of JacobiSeries and the bound of each row.
+template <class Scalar>
+struct JacobiSeriesTables {
+  static constexpr int terms = 9;
+  // Row j: the coefficient of u^{2j+1} in sn, of u^{2j+2} in 1 − cn and in 1 − dn, as
+  // polynomials in m (ascending powers; 1 − dn has the factor m): exact rationals, written
+  // to 22 digits and rounded to Scalar at compile time.
+  static constexpr Scalar sn[terms][9] = {
+      {Scalar(1.000000000000000000000e+0L)},
+      {Scalar(-1.666666666666666666667e-1L), Scalar(-1.666666666666666666667e-1L)},
+      {Scalar(8.333333333333333333333e-3L), Scalar(1.166666666666666666667e-1L), Scalar(8.333333333333333333333e-3L)},
+      {Scalar(-1.984126984126984126984e-4L), Scalar(-2.678571428571428571429e-2L), Scalar(-2.678571428571428571429e-2L), Scalar(-1.984126984126984126984e-4L)},
+      {Scalar(2.755731922398589065256e-6L), Scalar(3.384038800705467372134e-3L), Scalar(1.509589947089947089947e-2L), Scalar(3.384038800705467372134e-3L), Scalar(2.755731922398589065256e-6L)},
+      {Scalar(-2.505210838544171877505e-8L), Scalar(-2.773017877184543851211e-4L), Scalar(-4.154290925124258457592e-3L), Scalar(-4.154290925124258457592e-3L), Scalar(-2.773017877184543851211e-4L), Scalar(-2.505210838544171877505e-8L)},
+      {Scalar(1.605904383682161459939e-10L), Scalar(1.600155245988579321913e-5L), Scalar(7.217497972706306039639e-4L), Scalar(2.116625015930571486127e-3L), Scalar(7.217497972706306039639e-4L), Scalar(1.600155245988579321913e-5L), Scalar(1.605904383682161459939e-10L)},
+      {Scalar(-7.647163731819816475901e-13L), Scalar(-6.857999376187206875038e-7L), Scalar(-8.893244055694452519849e-5L), Scalar(-6.382989522663795150568e-4L), Scalar(-6.382989522663795150568e-4L), Scalar(-8.893244055694452519849e-5L), Scalar(-6.857999376187206875038e-7L), Scalar(-7.647163731819816475901e-13L)},
+      {Scalar(2.811457254345520763199e-15L), Scalar(2.269199123287981053309e-8L), Scalar(8.293700555544529245121e-6L), Scalar(1.325661818198242490181e-4L), Scalar(3.082622922067597507218e-4L), Scalar(1.325661818198242490181e-4L), Scalar(8.293700555544529245121e-6L), Scalar(2.269199123287981053309e-8L), Scalar(2.811457254345520763199e-15L)},
+  };
+  static constexpr Scalar cn[terms][9] = {
+      {Scalar(5.000000000000000000000e-1L)},
+      {Scalar(-4.166666666666666666667e-2L), Scalar(-1.666666666666666666667e-1L)},
+      {Scalar(1.388888888888888888889e-3L), Scalar(6.111111111111111111111e-2L), Scalar(2.222222222222222222222e-2L)},
+      {Scalar(-2.480158730158730158730e-5L), Scalar(-1.011904761904761904762e-2L), Scalar(-2.261904761904761904762e-2L), Scalar(-1.587301587301587301587e-3L)},
+      {Scalar(2.755731922398589065256e-7L), Scalar(1.016313932980599647266e-3L), Scalar(8.478835978835978835979e-3L), Scalar(4.356261022927689594356e-3L), Scalar(7.054673721340388007055e-5L)},
+      {Scalar(-2.087675698786809897921e-9L), Scalar(-6.933588530810753032975e-5L), Scalar(-1.817613970391748169526e-3L), Scalar(-3.212014323125434236545e-3L), Scalar(-5.413927636149858372081e-4L), Scalar(-2.137779915557693335471e-6L)},
+      {Scalar(1.147074559772972471385e-11L), Scalar(3.428972923020542068161e-6L), Scalar(2.631969001016620064239e-4L), Scalar(1.226486623312020137417e-3L), Scalar(7.457005076052695100314e-4L), Scalar(4.795909557814319719082e-5L), Scalar(4.698417396830095242794e-8L)},
+      {Scalar(-4.779477332387385297438e-14L), Scalar(-1.285878228669233960239e-7L), Scalar(-2.803784711026774518838e-5L), Scalar(-3.029072693424545276397e-4L), Scalar(-4.712798102348366898631e-4L), Scalar(-1.212541133176053810974e-4L), Scalar(-3.204516432029659542887e-6L), Scalar(-7.830695661383492071323e-10L)},
+      {Scalar(1.561920696858622646222e-16L), Scalar(3.781999788349859242414e-9L), Scalar(2.312315206898194414188e-6L), Scalar(5.397351574070718518621e-5L), Scalar(1.820158438270189143378e-4L), Scalar(1.222877654647893607675e-4L), Scalar(1.486223492309877481230e-5L), Scalar(1.676664539340473911833e-7L), Scalar(1.023620347893266937428e-11L)},
+  };
+  static constexpr Scalar dn[terms][10] = {
+      {Scalar(0.000000000000000000000e+21L), Scalar(5.000000000000000000000e-1L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(-1.666666666666666666667e-1L), Scalar(-4.166666666666666666667e-2L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(2.222222222222222222222e-2L), Scalar(6.111111111111111111111e-2L), Scalar(1.388888888888888888889e-3L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(-1.587301587301587301587e-3L), Scalar(-2.261904761904761904762e-2L), Scalar(-1.011904761904761904762e-2L), Scalar(-2.480158730158730158730e-5L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(7.054673721340388007055e-5L), Scalar(4.356261022927689594356e-3L), Scalar(8.478835978835978835979e-3L), Scalar(1.016313932980599647266e-3L), Scalar(2.755731922398589065256e-7L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(-2.137779915557693335471e-6L), Scalar(-5.413927636149858372081e-4L), Scalar(-3.212014323125434236545e-3L), Scalar(-1.817613970391748169526e-3L), Scalar(-6.933588530810753032975e-5L), Scalar(-2.087675698786809897921e-9L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(4.698417396830095242794e-8L), Scalar(4.795909557814319719082e-5L), Scalar(7.457005076052695100314e-4L), Scalar(1.226486623312020137417e-3L), Scalar(2.631969001016620064239e-4L), Scalar(3.428972923020542068161e-6L), Scalar(1.147074559772972471385e-11L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(-7.830695661383492071323e-10L), Scalar(-3.204516432029659542887e-6L), Scalar(-1.212541133176053810974e-4L), Scalar(-4.712798102348366898631e-4L), Scalar(-3.029072693424545276397e-4L), Scalar(-2.803784711026774518838e-5L), Scalar(-1.285878228669233960239e-7L), Scalar(-4.779477332387385297438e-14L)},
+      {Scalar(0.000000000000000000000e+21L), Scalar(1.023620347893266937428e-11L), Scalar(1.676664539340473911833e-7L), Scalar(1.486223492309877481230e-5L), Scalar(1.222877654647893607675e-4L), Scalar(1.820158438270189143378e-4L), Scalar(5.397351574070718518621e-5L), Scalar(2.312315206898194414188e-6L), Scalar(3.781999788349859242414e-9L), Scalar(1.561920696858622646222e-16L)},
+  };
+
+
+  /// A bound of row j relative to the leading terms (sn: u; 1 − cn: u²/2; 1 − dn: m u²/2),
+  /// per power u^{2j}: every coefficient polynomial has terms of one sign, so the sum of
+  /// their magnitudes is its value at m = 1 (tanh, sech) and bounds it on [0, 1].
+  static constexpr Scalar row_bound(int j) {
+    Scalar bs = 0, bc = 0, bd = 0;
+    for (int k = 0; k < 10; ++k) {
+      if (k < 9) bs += sn[j][k] < 0 ? -sn[j][k] : sn[j][k];
+      if (k < 9) bc += cn[j][k] < 0 ? -cn[j][k] : cn[j][k];
+      bd += dn[j][k] < 0 ? -dn[j][k] : dn[j][k];
+    }
+    bc *= 2, bd *= 2;
+    return bs > bc ? (bs > bd ? bs : bd) : (bc > bd ? bc : bd);
+  }
+};
+}  // namespace detail
+
 /// (sn, cn, dn)(u | m) for small |u| by their Maclaurin series in u, whose coefficients are
 /// polynomials in m (A&S 16.22, carried on to u¹⁸ by the equations sn' = cn dn,
 /// cn' = −sn dn, dn' = −m sn cn; docs/theory.md [F5]): no Landen ladder, no square root,
@@ -170,26 +229,41 @@ JacobiValues<Scalar> jacobi_sncndn(const JacobiModulus<Scalar>& L, Scalar u) {
 /// the m = 1 series (tanh, sech, radius π/2) bounds them all; the first omitted term is then
 /// below 1.7e-20 of the leading one (sn: u; 1 − cn: u²/2; 1 − dn: m u²/2), under long
 /// double's ε. 1 − cn and 1 − dn come out as series of their own (relative accuracy).
+///
+/// Truncation: given the largest |u| it will be evaluated at, the series keeps the rows
+/// whose bound can reach ε/16 of the leading term there (the rest, a geometric tail of
+/// ratio ≤ (2/π)² u², adds less than ε/8). At FB1's h = 0.01 that is 4 rows of 9: the
+/// coefficients and the evaluations cost a third.
 template <class Scalar>
 class JacobiSeries {
  public:
   static constexpr int terms = 9;                         ///< powers u¹ … u¹⁷ (sn), u² … u¹⁸
   static constexpr Scalar max_argument = Scalar(0.125);  ///< the largest |u| it is used for
 
-  /// The coefficients at parameter m = k² ∈ [0, 1].
-  explicit JacobiSeries(Scalar m) {
-    for (int j = 0; j < terms; ++j) {
-      s_[j] = horner(sn_[j], j + 1, m);
-      c_[j] = horner(cn_[j], j + 1, m);
-      d_[j] = horner(dn_[j], j + 2, m);
+  /// The coefficients at parameter m = k² ∈ [0, 1], for arguments |u| ≤ largest_argument
+  /// (≤ max_argument; fewer rows for smaller arguments, see the class comment).
+  explicit JacobiSeries(Scalar m, Scalar largest_argument = max_argument) {
+    using T = detail::JacobiSeriesTables<Scalar>;
+    const Scalar w = largest_argument * largest_argument;
+    const Scalar negligible = std::numeric_limits<Scalar>::epsilon() / Scalar(16);
+    Scalar wj = w;
+    for (rows_ = 1; rows_ < terms; ++rows_, wj *= w)
+      if (bound_[rows_] * wj <= negligible) break;
+    for (int j = 0; j < rows_; ++j) {
+      s_[j] = horner(T::sn[j], j + 1, m);
+      c_[j] = horner(T::cn[j], j + 1, m);
+      d_[j] = horner(T::dn[j], j + 2, m);
     }
   }
 
-  /// (sn, cn, dn)(u | m) and the complements, for |u| ≤ max_argument.
+  /// The number of rows kept (1 … terms).
+  int rows() const { return rows_; }
+
+  /// (sn, cn, dn)(u | m) and the complements, for |u| ≤ the constructor's largest_argument.
   JacobiValues<Scalar> operator()(Scalar u) const {
     const Scalar w = u * u;
-    Scalar s = s_[terms - 1], c = c_[terms - 1], d = d_[terms - 1];
-    for (int j = terms - 2; j >= 0; --j) {
+    Scalar s = s_[rows_ - 1], c = c_[rows_ - 1], d = d_[rows_ - 1];
+    for (int j = rows_ - 2; j >= 0; --j) {
       s = s * w + s_[j];
       c = c * w + c_[j];
       d = d * w + d_[j];
@@ -209,43 +283,13 @@ class JacobiSeries {
     for (int k = n - 2; k >= 0; --k) v = v * m + p[k];
     return v;
   }
-  // Row j: the coefficient of u^{2j+1} in sn, of u^{2j+2} in 1 − cn and in 1 − dn, as
-  // polynomials in m (ascending powers; 1 − dn has the factor m): exact rationals, written
-  // to 22 digits and rounded to Scalar at compile time.
-  static constexpr Scalar sn_[terms][9] = {
-      {Scalar(1.000000000000000000000e+0L)},
-      {Scalar(-1.666666666666666666667e-1L), Scalar(-1.666666666666666666667e-1L)},
-      {Scalar(8.333333333333333333333e-3L), Scalar(1.166666666666666666667e-1L), Scalar(8.333333333333333333333e-3L)},
-      {Scalar(-1.984126984126984126984e-4L), Scalar(-2.678571428571428571429e-2L), Scalar(-2.678571428571428571429e-2L), Scalar(-1.984126984126984126984e-4L)},
-      {Scalar(2.755731922398589065256e-6L), Scalar(3.384038800705467372134e-3L), Scalar(1.509589947089947089947e-2L), Scalar(3.384038800705467372134e-3L), Scalar(2.755731922398589065256e-6L)},
-      {Scalar(-2.505210838544171877505e-8L), Scalar(-2.773017877184543851211e-4L), Scalar(-4.154290925124258457592e-3L), Scalar(-4.154290925124258457592e-3L), Scalar(-2.773017877184543851211e-4L), Scalar(-2.505210838544171877505e-8L)},
-      {Scalar(1.605904383682161459939e-10L), Scalar(1.600155245988579321913e-5L), Scalar(7.217497972706306039639e-4L), Scalar(2.116625015930571486127e-3L), Scalar(7.217497972706306039639e-4L), Scalar(1.600155245988579321913e-5L), Scalar(1.605904383682161459939e-10L)},
-      {Scalar(-7.647163731819816475901e-13L), Scalar(-6.857999376187206875038e-7L), Scalar(-8.893244055694452519849e-5L), Scalar(-6.382989522663795150568e-4L), Scalar(-6.382989522663795150568e-4L), Scalar(-8.893244055694452519849e-5L), Scalar(-6.857999376187206875038e-7L), Scalar(-7.647163731819816475901e-13L)},
-      {Scalar(2.811457254345520763199e-15L), Scalar(2.269199123287981053309e-8L), Scalar(8.293700555544529245121e-6L), Scalar(1.325661818198242490181e-4L), Scalar(3.082622922067597507218e-4L), Scalar(1.325661818198242490181e-4L), Scalar(8.293700555544529245121e-6L), Scalar(2.269199123287981053309e-8L), Scalar(2.811457254345520763199e-15L)},
-  };
-  static constexpr Scalar cn_[terms][9] = {
-      {Scalar(5.000000000000000000000e-1L)},
-      {Scalar(-4.166666666666666666667e-2L), Scalar(-1.666666666666666666667e-1L)},
-      {Scalar(1.388888888888888888889e-3L), Scalar(6.111111111111111111111e-2L), Scalar(2.222222222222222222222e-2L)},
-      {Scalar(-2.480158730158730158730e-5L), Scalar(-1.011904761904761904762e-2L), Scalar(-2.261904761904761904762e-2L), Scalar(-1.587301587301587301587e-3L)},
-      {Scalar(2.755731922398589065256e-7L), Scalar(1.016313932980599647266e-3L), Scalar(8.478835978835978835979e-3L), Scalar(4.356261022927689594356e-3L), Scalar(7.054673721340388007055e-5L)},
-      {Scalar(-2.087675698786809897921e-9L), Scalar(-6.933588530810753032975e-5L), Scalar(-1.817613970391748169526e-3L), Scalar(-3.212014323125434236545e-3L), Scalar(-5.413927636149858372081e-4L), Scalar(-2.137779915557693335471e-6L)},
-      {Scalar(1.147074559772972471385e-11L), Scalar(3.428972923020542068161e-6L), Scalar(2.631969001016620064239e-4L), Scalar(1.226486623312020137417e-3L), Scalar(7.457005076052695100314e-4L), Scalar(4.795909557814319719082e-5L), Scalar(4.698417396830095242794e-8L)},
-      {Scalar(-4.779477332387385297438e-14L), Scalar(-1.285878228669233960239e-7L), Scalar(-2.803784711026774518838e-5L), Scalar(-3.029072693424545276397e-4L), Scalar(-4.712798102348366898631e-4L), Scalar(-1.212541133176053810974e-4L), Scalar(-3.204516432029659542887e-6L), Scalar(-7.830695661383492071323e-10L)},
-      {Scalar(1.561920696858622646222e-16L), Scalar(3.781999788349859242414e-9L), Scalar(2.312315206898194414188e-6L), Scalar(5.397351574070718518621e-5L), Scalar(1.820158438270189143378e-4L), Scalar(1.222877654647893607675e-4L), Scalar(1.486223492309877481230e-5L), Scalar(1.676664539340473911833e-7L), Scalar(1.023620347893266937428e-11L)},
-  };
-  static constexpr Scalar dn_[terms][10] = {
-      {Scalar(0.000000000000000000000e+21L), Scalar(5.000000000000000000000e-1L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(-1.666666666666666666667e-1L), Scalar(-4.166666666666666666667e-2L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(2.222222222222222222222e-2L), Scalar(6.111111111111111111111e-2L), Scalar(1.388888888888888888889e-3L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(-1.587301587301587301587e-3L), Scalar(-2.261904761904761904762e-2L), Scalar(-1.011904761904761904762e-2L), Scalar(-2.480158730158730158730e-5L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(7.054673721340388007055e-5L), Scalar(4.356261022927689594356e-3L), Scalar(8.478835978835978835979e-3L), Scalar(1.016313932980599647266e-3L), Scalar(2.755731922398589065256e-7L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(-2.137779915557693335471e-6L), Scalar(-5.413927636149858372081e-4L), Scalar(-3.212014323125434236545e-3L), Scalar(-1.817613970391748169526e-3L), Scalar(-6.933588530810753032975e-5L), Scalar(-2.087675698786809897921e-9L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(4.698417396830095242794e-8L), Scalar(4.795909557814319719082e-5L), Scalar(7.457005076052695100314e-4L), Scalar(1.226486623312020137417e-3L), Scalar(2.631969001016620064239e-4L), Scalar(3.428972923020542068161e-6L), Scalar(1.147074559772972471385e-11L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(-7.830695661383492071323e-10L), Scalar(-3.204516432029659542887e-6L), Scalar(-1.212541133176053810974e-4L), Scalar(-4.712798102348366898631e-4L), Scalar(-3.029072693424545276397e-4L), Scalar(-2.803784711026774518838e-5L), Scalar(-1.285878228669233960239e-7L), Scalar(-4.779477332387385297438e-14L)},
-      {Scalar(0.000000000000000000000e+21L), Scalar(1.023620347893266937428e-11L), Scalar(1.676664539340473911833e-7L), Scalar(1.486223492309877481230e-5L), Scalar(1.222877654647893607675e-4L), Scalar(1.820158438270189143378e-4L), Scalar(5.397351574070718518621e-5L), Scalar(2.312315206898194414188e-6L), Scalar(3.781999788349859242414e-9L), Scalar(1.561920696858622646222e-16L)},
-  };
-
+  static constexpr Scalar bound_[terms] = {
+      detail::JacobiSeriesTables<Scalar>::row_bound(0), detail::JacobiSeriesTables<Scalar>::row_bound(1),
+      detail::JacobiSeriesTables<Scalar>::row_bound(2), detail::JacobiSeriesTables<Scalar>::row_bound(3),
+      detail::JacobiSeriesTables<Scalar>::row_bound(4), detail::JacobiSeriesTables<Scalar>::row_bound(5),
+      detail::JacobiSeriesTables<Scalar>::row_bound(6), detail::JacobiSeriesTables<Scalar>::row_bound(7),
+      detail::JacobiSeriesTables<Scalar>::row_bound(8)};
+  int rows_ = terms;
   Scalar s_[terms], c_[terms], d_[terms];
 };
 

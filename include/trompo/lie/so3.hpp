@@ -18,6 +18,16 @@
 
 namespace trompo {
 
+namespace detail {
+/// One Newton step for 1/|q| given n2 = |q|² = 1 + δ: q ← q (3 − n2)/2, which leaves
+/// |q|² − 1 = O(δ²) + round-off, as normalising by √n2 does, without a square root or a
+/// division on a stepper's critical path. For products of unit quaternions (δ = O(ε)).
+template <class Scalar>
+inline void newton_unit(Eigen::Quaternion<Scalar>& q, Scalar n2) {
+  q.coeffs() *= (Scalar(3) - n2) / Scalar(2);
+}
+}  // namespace detail
+
 /// A rotation of 3-space, stored as a unit quaternion with non-negative scalar part
 /// (docs/theory.md §2). SO3d and SO3f are the double and float instances.
 template <class Scalar_>
@@ -74,13 +84,11 @@ class SO3 {
   /// *this · exp(x̂), with c the half-angle pair of |x| (detail::half_angle or
   /// half_angle_from_squared): a step's update Λ_{n+1} = Λ_n exp(Θ̂). The product of two
   /// unit quaternions has |q|² = 1 + δ, δ = O(ε); it is renormalised by one Newton step
-  /// for 1/|q|, q ← q (3 − |q|²)/2, which leaves |q|² − 1 = O(δ²) + round-off, as
-  /// normalising by √|q|² does, without that square root and division on a stepper's
-  /// critical path. (For input quaternions use renormalized(), which also rescales.)
+  /// for 1/|q| (detail::newton_unit). (For input quaternions use renormalized(), which also rescales.)
   SO3 times_exp(const Vector3& x, const detail::HalfAngle<Scalar>& c) const {
     const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
     Quaternion q = q_ * Quaternion(c.cos_half, v.x(), v.y(), v.z());
-    q.coeffs() *= (Scalar(3) - q.squaredNorm()) / Scalar(2);
+    detail::newton_unit(q, q.squaredNorm());
     return SO3(q, NoCheck{});
   }
 
@@ -205,7 +213,14 @@ class SO3 {
       q_.coeffs() /= q_.coeffs().cwiseAbs().maxCoeff();
       n2 = q_.squaredNorm();
     }
-    if (n2 > Scalar(0)) q_.coeffs() /= sqrt(n2);  // as Quaternion::normalize(), one |q|² only
+    // Near |q| = 1 (products of unit quaternions: the schemes' outputs) the Newton step of
+    // times_exp, exact to 3δ²/8 ≤ ε/40 for |δ| = ||q|² − 1| ≤ √ε/4. Elsewhere (input) the quotient.
+    using std::abs;
+    if (abs(n2 - Scalar(1)) <= sqrt(std::numeric_limits<Scalar>::epsilon()) / Scalar(4)) {
+      detail::newton_unit(q_, n2);
+    } else if (n2 > Scalar(0)) {
+      q_.coeffs() /= sqrt(n2);  // as Quaternion::normalize(), one |q|² only
+    }
     canonical();
   }
   // Keep w ≥ 0 so that log() returns |x| ≤ π.

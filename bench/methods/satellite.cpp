@@ -85,6 +85,10 @@ const SplittingSweep methods[] = {
     {SplittingMethod::chin_4a, {32, 0.25}},
     {SplittingMethod::kahan_li_9, {64, 0.7}},
     {SplittingMethod::chin_triple_jump, {64, 0.7}},
+    // The near-integrable compositions with corrector [F8] on the exact free flow: the
+    // torque is ~1e-4 of the spin terms here, so their ε h^p + ε² h^q error pays.
+    {SplittingMethod::sbab3c, {32, 1.4}},
+    {SplittingMethod::saba4c, {45, 1.4}},
 };
 
 void register_satellite_sweeps() {

@@ -80,24 +80,68 @@ Config config_of(const std::map<std::string, std::string>& flags) {
   }
 }
 
+/// An event function of Python, g(t, y) with y = (Λ row-major, Ω) as solve_ivp's columns,
+/// as the engine's g(t, Λ, Ω). The engine runs without the GIL: each call takes it. The
+/// callable is held by pointer (the caller's list keeps it alive for the run), so that
+/// copies of the std::function touch no Python reference count without the GIL. An
+/// exception raised in g ends the run and is raised again by simulate_flags.
+trompo::Event<double> python_event(const py::handle& item) {
+  const py::tuple t = py::reinterpret_borrow<py::tuple>(item);
+  if (t.size() != 4) throw py::value_error("events: expected (name, callable, direction, terminal) tuples");
+  trompo::Event<double> e;
+  e.name = t[0].cast<std::string>();
+  PyObject* fn = t[1].ptr();
+  e.direction = t[2].cast<int>();
+  e.terminal = t[3].cast<int>();
+  if (e.direction < -1 || e.direction > 1) throw py::value_error("events: direction must be -1, 0 or 1");
+  if (e.terminal < 0) throw py::value_error("events: terminal must be a bool or a count >= 0");
+  const std::string name = e.name;
+  e.g = [fn, name](double time, const trompo::SO3<double>& R, const V3& W) -> double {
+    py::gil_scoped_acquire gil;
+    py::array_t<double> y(12);
+    auto yv = y.mutable_unchecked<1>();
+    const M3 L = R.matrix();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) yv(3 * i + j) = L(i, j);
+    for (int i = 0; i < 3; ++i) yv(9 + i) = W(i);
+    try {
+      return py::reinterpret_borrow<py::object>(fn)(time, y).cast<double>();
+    } catch (py::error_already_set& err) {
+      throw std::runtime_error("event '" + name + "' raised " + err.what());
+    } catch (const py::cast_error&) {
+      throw std::runtime_error("event '" + name + "': the function must return a number");
+    }
+  };
+  return e;
+}
+
 /// (status, rows, messages): status is the CLI's exit code (0 done, 3 a step failed).
-py::tuple simulate_flags(const std::map<std::string, std::string>& flags) {
-  const Config c = config_of(flags);
+/// `events`: Python event functions, (name, callable, direction, terminal) each, after the
+/// flags' --event (adaptive steps only).
+py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const py::object& events) {
+  Config c = config_of(flags);
   if (!c.ensemble.empty() || !c.csv.empty()) throw py::value_error("simulate: --ensemble and --csv are the CLI's");
+  if (!events.is_none()) {
+    if (!c.adaptive.on) throw py::value_error("events: only with adaptive steps (give rtol)");
+    for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
+  }
   ArraySink sink;
   const double rows = std::abs(*c.t_end / *c.dt) / static_cast<double>(c.every) + 2;  // a guess, capped
   sink.reserve(static_cast<std::size_t>(std::min(rows, 1e5)));
   int code = 0;
-  std::string error;
+  std::string error, raised;
   {
     py::gil_scoped_release no_gil;
     try {
       code = simulate(c, sink);
     } catch (const invalid_input& e) {
       error = e.what();
+    } catch (const std::runtime_error& e) {  // an event function raised (python_event)
+      raised = e.what();
     }
   }
   if (!error.empty()) throw py::value_error(error);
+  if (!raised.empty()) throw std::runtime_error(raised);
   py::list messages;
   for (const auto& m : sink.messages) messages.append(m);
   return py::make_tuple(code, rows_of(sink), messages);
@@ -205,8 +249,9 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
 
 PYBIND11_MODULE(_trompo, m) {
   m.doc() = "C++ half of the trompo module: trompo-simulate's logic on NumPy arrays (use trompo.simulate / trompo.ensemble)";
-  m.def("simulate_flags", &simulate_flags, py::arg("flags"),
-        "Runs trompo-simulate's flags (a dict '--dt' -> '0.001'); returns (status, rows, messages).");
+  m.def("simulate_flags", &simulate_flags, py::arg("flags"), py::arg("events") = py::none(),
+        "Runs trompo-simulate's flags (a dict '--dt' -> '0.001'), with optional Python event functions "
+        "[(name, g(t, y), direction, terminal), ...]; returns (status, rows, messages).");
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
         py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");

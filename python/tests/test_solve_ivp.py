@@ -40,8 +40,46 @@ def test_bad_input():
         trompo.solve_ivp("ht1", (1, float("inf")))
     with pytest.raises(ValueError, match="span"):
         trompo.solve_ivp("ht1", (1, 1.5), rtol=1e-6, dense_output=True).sol(1.6)
-    with pytest.raises(NotImplementedError):
-        trompo.solve_ivp("ht1", (0, 1), events=[lambda t, y: y[0]])
+    with pytest.raises(ValueError, match="direction"):
+        bad = lambda t, y: y[0]  # noqa: E731
+        bad.direction = 2
+        trompo.solve_ivp("ht1", (0, 1), events=[bad])
+    with pytest.raises(TypeError, match="events"):
+        trompo.solve_ivp("ht1", (0, 1), events=[42])
+
+
+def test_python_callable_events():
+    # FB1 (J = 1, 2, 3): the body momentum along the intermediate axis, 2 Ω_y, changes sign at
+    # each flip: a Python g(t, y) finds the built-in "flip" events.
+    def flip(t, y):
+        return 2.0 * y[10]
+
+    res = trompo.solve_ivp("fb1", (0, 60), rtol=1e-10, atol=1e-10, order=4, events=["flip", flip])
+    assert res.status == 0 and len(res.t_events[0]) >= 2
+    assert res.t_events[1].shape == res.t_events[0].shape
+    assert np.allclose(res.t_events[1], res.t_events[0], rtol=0, atol=1e-12)
+    assert res.y_events[1].shape == (len(res.t_events[1]), 12)
+    assert np.allclose(res.y_events[1][:, 10], 0, atol=1e-12)  # g = 0 at the event states
+    # direction (SciPy's): +1 keeps the rising zeros only; terminal: the first ends the run
+    rising = lambda t, y: 2.0 * y[10]  # noqa: E731
+    rising.direction = 1
+    rising.terminal = True
+    one = trompo.solve_ivp("fb1", (0, 60), rtol=1e-10, atol=1e-10, order=4, events=[rising])
+    # the first zero with g < 0 at the step end before it
+    first_rising = next(t for t in res.t_events[1] if flip(0, res.y[:, np.searchsorted(res.t, t) - 1]) < 0)
+    assert one.status == 1 and one.success and len(one.t_events[0]) == 1
+    assert abs(one.t_events[0][0] - first_rising) <= 1e-12 and one.t[-1] == one.t_events[0][0]
+    # H and π exact through the terminal step (Simo-κ, the default scheme)
+    assert np.max(np.abs(one.H / one.H[0] - 1)) <= 1e-13
+    # the time given to g is the user's: t_span from 5, a zero of t - 5.3 found at 5.3
+    at = lambda t, y: t - 5.3  # noqa: E731
+    shifted = trompo.solve_ivp("ht1", (5, 6), rtol=1e-8, atol=1e-8, events=[at])
+    assert len(shifted.t_events[0]) == 1 and abs(shifted.t_events[0][0] - 5.3) <= 1e-12
+    # an exception raised in g ends the run and is raised again
+    def broken(t, y):
+        raise ZeroDivisionError("no")
+    with pytest.raises(RuntimeError, match="ZeroDivisionError"):
+        trompo.solve_ivp("ht1", (0, 1), rtol=1e-6, events=[broken])
 
 
 def test_ensemble_progress_same_bits():

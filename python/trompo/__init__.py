@@ -178,9 +178,13 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     is the CLI's run over [0, t1 - t0] with every time shifted by t0 (t_eval and the last
     time reported as given); ``first_step`` is ``--dt``
     (a case gives its own); ``control`` is "tolerance" or "reversible". ``events``: built-in
-    names ("nutation-max", "nutation-min", "axis-crossing", "flip"), or objects with
-    ``.name`` (one of those) and optionally ``.terminal`` (bool or count); Python callables
-    are not supported yet. Other keywords are simulate()'s (scheme, order, inertia, ...).
+    names ("nutation-max", "nutation-min", "axis-crossing", "flip"), objects with ``.name``
+    (one of those) and optionally ``.terminal`` (bool or count), or Python callables
+    ``g(t, y)`` as SciPy's (y as a column of ``y``), with optional ``.terminal`` and
+    ``.direction`` attributes: their zeros are located by the engine on its dense output,
+    as the built-ins' (a terminal one ends the run with a real step to the event). A
+    callable costs a Python call per sample (the step ends and three points inside each
+    step). Other keywords are simulate()'s (scheme, order, inertia, ...).
 
     Returns an OdeResult: ``t`` (n,), ``y`` (12, n) (Λ row-major, then Ω, per column),
     ``t_events``/``y_events`` per event, ``status`` (0 end reached, 1 terminal event, -1
@@ -208,30 +212,40 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     if t_eval is not None:
         t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
         kwargs["t_eval"] = ",".join(repr(float(v - t0)) for v in t_eval)
-    names = []
+    names = []       # per event, in the order given: the name its rows carry
+    code_events = []  # the callables: (name, g, direction, terminal)
     if events is not None:
         if callable(events) or isinstance(events, str) or not isinstance(events, (list, tuple)):
             events = [events]
         items = []
-        for e in events:
-            if isinstance(e, str):
-                name, terminal = e, 0
-            elif hasattr(e, "name") and isinstance(e.name, str):
-                name, terminal = e.name, getattr(e, "terminal", 0)
-            else:
-                raise NotImplementedError("solve_ivp: events must be built-in names for now, got " + repr(e))
+        for i, e in enumerate(events):
+            terminal = getattr(e, "terminal", 0)
             terminal = int(terminal) if not isinstance(terminal, bool) else int(terminal)
-            if getattr(e, "direction", 0) not in (0,):
-                raise NotImplementedError("solve_ivp: the built-in events carry their own direction")
-            names.append(name)
-            items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
-        kwargs["event"] = ";".join(items)
+            if terminal < 0:
+                raise ValueError(f"events[{i}].terminal: must be a bool or a count >= 0, got {terminal!r}")
+            if isinstance(e, str) or (hasattr(e, "name") and isinstance(e.name, str) and not callable(e)):
+                name = e if isinstance(e, str) else e.name
+                if getattr(e, "direction", 0) not in (0,):
+                    raise ValueError("solve_ivp: the built-in events carry their own direction")
+                names.append(name)
+                items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
+            elif callable(e):
+                direction = getattr(e, "direction", 0)
+                if direction not in (-1, 0, 1) and not (isinstance(direction, float) and direction in (-1.0, 0.0, 1.0)):
+                    raise ValueError(f"events[{i}].direction: must be -1, 0 or 1, got {direction!r}")
+                name = f"python-event-{i}"
+                names.append(name)
+                code_events.append((name, _event_function(e, t0), int(np.sign(direction)), terminal))
+            else:
+                raise TypeError(f"events[{i}]: expected a built-in name or a callable g(t, y), got {e!r}")
+        if items:
+            kwargs["event"] = ";".join(items)
     fd, event_path = tempfile.mkstemp(suffix=".csv")
     os.close(fd)
     try:
         if names:
             kwargs["event_csv"] = event_path
-        status, rows, messages = _simulate_flags(_flags(kwargs))
+        status, rows, messages = _simulate_flags(_flags(kwargs), code_events or None)
         event_rows = []
         if names:
             with open(event_path) as f:
@@ -262,7 +276,7 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
             t_last = float(event_rows[-1][1]) + t0
         else:
             t_last = t1 if t1 is not None else float(t_eval[-1])
-        res["sol"] = _dense_solution(kwargs, t0, t0, t_last)
+        res["sol"] = _dense_solution(kwargs, t0, t0, t_last, code_events or None)
     res["t_events"], res["y_events"] = [], []
     for name in names:
         sel = [r for r in event_rows if r[0] == name]
@@ -276,13 +290,20 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     return res
 
 
+def _event_function(e, t0):
+    """g(t, y) -> float for the engine, at the user's time (the engine runs from 0)."""
+    def g(t, y):
+        return float(e(t + t0, y))
+    return g
+
+
 def _column_states(rows):
     """(n, 12): Λ row-major, then Ω, per row of the engine."""
     n = len(rows["t"])
     return np.concatenate([rows["R"].reshape(n, 9), rows["W"]], axis=1)
 
 
-def _dense_solution(kwargs, t0, t_first, t_last):
+def _dense_solution(kwargs, t0, t_first, t_last, code_events=None):
     """solve_ivp's ``sol``: the run of ``kwargs`` again, with rows at the requested times."""
     kwargs = {k: v for k, v in kwargs.items() if k not in ("t_eval", "event_csv")}
     lo, hi = min(t_first, t_last), max(t_first, t_last)
@@ -297,7 +318,9 @@ def _dense_solution(kwargs, t0, t_first, t_last):
         times = np.unique(flat)  # increasing; the engine wants the order of integration
         if t_last < t_first:
             times = times[::-1]
-        status, rows, messages = _simulate_flags(_flags(dict(kwargs, t_eval=",".join(repr(float(v - t0)) for v in times))))
+        # the same events: a terminal one ends this run at the same step, as the first
+        status, rows, messages = _simulate_flags(_flags(dict(kwargs, t_eval=",".join(repr(float(v - t0)) for v in times))),
+                                                 code_events)
         if len(rows["t"]) != len(times):
             raise RuntimeError("sol: the engine gave %d of %d rows: %s" % (len(rows["t"]), len(times), "; ".join(messages)))
         y = _column_states(rows)[np.searchsorted(times, flat) if t_last >= t_first

@@ -76,6 +76,8 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     opt.first_step = std::abs(*c.dt);
     std::vector<Event<double>> ev;
     for (const auto& [name, terminal] : a.events) ev.push_back(events::by_name(scene, name, terminal));
+    for (const Event<double>& e : a.code_events) ev.push_back(e);
+    if (!a.event_csv.empty() && ev.empty()) throw invalid_input("--event-csv: needs at least one --event");
     std::FILE* event_file = nullptr;
     if (!a.event_csv.empty()) {
       event_file = std::fopen(a.event_csv.c_str(), "w");

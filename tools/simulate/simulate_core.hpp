@@ -37,6 +37,7 @@
 #define TROMPO_SIMULATE_HAVE_ISATTY 1
 #endif
 
+#include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/model/cases.hpp"
 #include "trompo/schemes/registry.hpp"
@@ -114,6 +115,9 @@ struct AdaptiveFlags {
   std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
   std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
   std::string event_csv;                             ///< --event-csv FILE
+  /// Events given as code, after --event's (no flag: the Python module's callables,
+  /// solve_ivp(events=[f, ...])); their rows go to --event-csv under their names.
+  std::vector<trompo::Event<double>> code_events;
 };
 // ---- end adaptive ----
 
@@ -514,7 +518,6 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
     throw invalid_input("--rtol: the processed composition's processor is tied to h (each change of h costs 24 base "
                         "steps): use --order 6 (Kahan-Li) for adaptive steps, or drop --rtol");
   if (!a.t_eval.empty() && flags.count("--every")) throw invalid_input("--every: not with --t-eval (rows at those times only)");
-  if (!a.event_csv.empty() && a.events.empty()) throw invalid_input("--event-csv: needs at least one --event");
   const double t0 = 0, t1 = *c.t_end;
   const bool forward = t1 >= t0;
   for (std::size_t i = 0; i < a.t_eval.size(); ++i) {

@@ -34,6 +34,8 @@
 // Extra flag (then no benchmark runs):
 //   --trompo_energy_series=FILE   energy error over time for a long run of each method
 //                                 on HT1 (h = 1e-3, t ∈ [0, 500]), CSV.
+//   --trompo_satellite_series=FILE   sat1 over 1000 orbits: the local vertical in body axes,
+//                                 E_J per orbit (methods/satellite.cpp), CSV.
 #include "bench_common.hpp"
 
 namespace {
@@ -225,16 +227,20 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "trompo-bench: built with TROMPO_BENCH_COMPILE_CHECK (-O0): its timings mean nothing\n");
 #endif
   // Our own flags first; Google Benchmark rejects flags it does not know.
-  std::string series_path;
+  std::string series_path, satellite_path;
   std::vector<char*> args;
   for (int i = 0; i < argc; ++i) {
     const char* flag = "--trompo_energy_series=";
+    const char* sat_flag = "--trompo_satellite_series=";
     if (std::strncmp(argv[i], flag, std::strlen(flag)) == 0)
       series_path = argv[i] + std::strlen(flag);
+    else if (std::strncmp(argv[i], sat_flag, std::strlen(sat_flag)) == 0)
+      satellite_path = argv[i] + std::strlen(sat_flag);
     else
       args.push_back(argv[i]);
   }
   if (!series_path.empty()) return energy_series(series_path);
+  if (!satellite_path.empty()) return satellite_series(satellite_path);
   int n_args = int(args.size());
   benchmark::Initialize(&n_args, args.data());
   if (benchmark::ReportUnrecognizedArguments(n_args, args.data())) return 1;

@@ -2,11 +2,12 @@
 
 Reads  REPORT_DIR/bench.json            (trompo-bench --benchmark_out, both families)
        REPORT_DIR/energy_series.csv     (trompo-bench --trompo_energy_series), optional
+       REPORT_DIR/satellite_series.csv  (trompo-bench --trompo_satellite_series), optional
        REPORT_DIR/machine.txt           (lscpu), optional
 Writes REPORT_DIR/report.md, sweep.csv, step.csv, frontier.csv, attitude_only.csv,
        splitting_targets.csv, families.md, accuracy.md (the docs page, whole) and the plots
        work_precision*.png, frontier.png, energy_vs_h.png, newton_vs_h.png,
-       energy_over_time.png, invariants_families.png, large_step_ht0.png
+       energy_over_time.png, satellite.png, invariants_families.png, large_step_ht0.png
 
 With TROMPO_UPDATE_DOCS=1 in the environment it also copies accuracy.md over
 docs/accuracy.md.
@@ -47,6 +48,7 @@ def main():
     # ---- end families ----------------------------------------------------------------------
     core.plot_frontier(report_dir, sweep, fr)
     core.plot_energy_series(report_dir)
+    core.plot_satellite_series(report_dir)
     splitting.write_csv(report_dir, sweep, steps)
     page = accuracy.write(report_dir, sweep, steps, fr, core.FRONTIER_ROT, core.FRONTIER_DH)
 

@@ -527,6 +527,24 @@ void register_step(const Problem<SceneT>& p, Scheme scheme, Method order) {
 /// main() calls every family's `steps` after the core per-step benchmarks and its `sweeps`
 /// after the core sweeps; both read the problems from `tops` and `frees` (HT0, HT1, HT2;
 /// FB1), which are set up with their references by then. Either may be null.
+/// The largest relative change |E − E0|/|E0| over each window of time, for the long-run
+/// series (bench_main.cpp: H over 500 time units; methods/satellite.cpp: E_J over 1000
+/// orbits): add() every sample; the first sample at or past a window's end calls
+/// emit(that end, the window's largest change) and starts the next window.
+struct WindowedMax {
+  double E0, window, next, worst = 0;
+  WindowedMax(double E0_, double window_) : E0(E0_), window(window_), next(window_) {}
+  template <class Emit>
+  void add(double t, double E, Emit&& emit) {
+    worst = std::max(worst, std::abs(E - E0) / std::abs(E0));
+    if (t >= next - 1e-9 * window) {
+      emit(next, worst);
+      worst = 0;
+      next += window;
+    }
+  }
+};
+
 /// sat1 over 1000 orbits for the report's satellite figure (methods/satellite.cpp):
 /// trompo-bench --trompo_satellite_series=FILE.
 int satellite_series(const std::string& path);

@@ -129,24 +129,18 @@ int energy_series(const std::string& path) {
   }
   out << "method,t,max_dH\n" << std::setprecision(6);
   const double H0 = c.scene.energy(c.initial);
-  // Collects max |ΔH/H| per window of time.
+  // max |ΔH/H| per window of time, one row each.
   struct Windows {
     std::ofstream& out;
     std::string method;
-    double H0, window;
-    double worst = 0, next;
+    WindowedMax max;
     void add(double t, double H) {
-      worst = std::max(worst, std::abs(H - H0) / std::abs(H0));
-      if (t >= next - 1e-9) {
-        out << method << ',' << next << ',' << worst << '\n';
-        worst = 0;
-        next += window;
-      }
+      max.add(t, H, [&](double end, double worst) { out << method << ',' << end << ',' << worst << '\n'; });
     }
   };
   auto timed = [&](const std::string& method, auto&& body) {
     const auto t0 = std::chrono::steady_clock::now();
-    Windows w{out, method, H0, window, 0.0, window};
+    Windows w{out, method, WindowedMax(H0, window)};
     body(w);
     const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::fprintf(stderr, "energy series: %-24s %.2f s\n", method.c_str(), sec);

@@ -142,25 +142,17 @@ int satellite_series(const std::string& path) {
   }
   std::fprintf(out, "method,t,c_x,c_y,c_z,dEJ\n");
   const double E0 = c.scene.energy(c.initial);
-  struct PerOrbit {  // the largest |ΔE_J/E_J| of each orbit, one row at its end
-    std::FILE* out;
-    const char* method;
-    double E0, orbit, worst = 0;
-    long k = 1;
-    void add(double t, double E) {
-      worst = std::max(worst, std::abs(E - E0) / std::abs(E0));
-      if (t >= double(k) * orbit * (1 - 1e-12)) {
-        std::fprintf(out, "%s,%.9g,,,,%.6g\n", method, t, worst);
-        worst = 0;
-        ++k;
-      }
-    }
+  // the largest |ΔE_J/E_J| of each orbit, one row at its end
+  auto per_orbit = [&](const char* method) {
+    return [out, method, max = WindowedMax(E0, orbit)](double t, double E) mutable {
+      max.add(t, E, [&](double end, double worst) { std::fprintf(out, "%s,%.9g,,,,%.6g\n", method, end, worst); });
+    };
   };
   {
     const SatSplittingRunner<Sat> run(Splitting(SplittingMethod::saba4c), c.scene);
     const double h = 8.0;
     State<double> s = c.initial;
-    PerOrbit rec{out, "splitting-saba4c", E0, orbit};
+    auto record = per_orbit("splitting-saba4c");
     const auto t0 = std::chrono::steady_clock::now();
     const long n = std::lround(double(orbits) * orbit / h);
     for (long i = 1; i <= n; ++i) {
@@ -173,7 +165,7 @@ int satellite_series(const std::string& path) {
         const V3 cb = s.rotation.matrix().transpose() * gg.radial_at(s.time);
         std::fprintf(out, "attitude,%.9g,%.9g,%.9g,%.9g,\n", s.time, cb.x(), cb.y(), cb.z());
       }
-      rec.add(s.time, c.scene.energy(s));
+      record(s.time, c.scene.energy(s));
     }
     std::fprintf(stderr, "satellite series: saba4c h = 8 s, %ld steps, %.2f s\n", n,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
@@ -182,10 +174,10 @@ int satellite_series(const std::string& path) {
   {
     const bench::QuaternionOde<Sat> ode{&c.scene};
     bench::OdeState x = bench::to_ode(c.initial);
-    PerOrbit rec{out, "odeint-dopri5-tol1e-10", E0, orbit};
+    auto record = per_orbit("odeint-dopri5-tol1e-10");
     const auto t0 = std::chrono::steady_clock::now();
     const long steps = bench::odeint_dopri5(ode, x, 0.0, double(orbits) * orbit, 1e-10, [&](const bench::OdeState& y, double t) {
-      rec.add(t, c.scene.energy(bench::from_ode(y, t)));
+      record(t, c.scene.energy(bench::from_ode(y, t)));
     });
     std::fprintf(stderr, "satellite series: dopri5 tol 1e-10, %ld steps, %.2f s\n", steps,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

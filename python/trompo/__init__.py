@@ -219,8 +219,7 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
             events = [events]
         items = []
         for i, e in enumerate(events):
-            terminal = getattr(e, "terminal", 0)
-            terminal = int(terminal) if not isinstance(terminal, bool) else int(terminal)
+            terminal = int(getattr(e, "terminal", 0))  # True counts as 1
             if terminal < 0:
                 raise ValueError(f"events[{i}].terminal: must be a bool or a count >= 0, got {terminal!r}")
             if isinstance(e, str) or (hasattr(e, "name") and isinstance(e.name, str) and not callable(e)):
@@ -231,11 +230,11 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
                 items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
             elif callable(e):
                 direction = getattr(e, "direction", 0)
-                if direction not in (-1, 0, 1) and not (isinstance(direction, float) and direction in (-1.0, 0.0, 1.0)):
+                if direction not in (-1, 0, 1):  # -1.0, 0.0 and 1.0 compare equal too
                     raise ValueError(f"events[{i}].direction: must be -1, 0 or 1, got {direction!r}")
                 name = f"python-event-{i}"
                 names.append(name)
-                code_events.append((name, _event_function(e, t0), int(np.sign(direction)), terminal))
+                code_events.append((name, _event_function(e, t0), int(direction), terminal))
             else:
                 raise TypeError(f"events[{i}]: expected a built-in name or a callable g(t, y), got {e!r}")
         if items:

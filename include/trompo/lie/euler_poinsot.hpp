@@ -12,7 +12,8 @@
 // [F5] (a Maclaurin series for small increments, the Landen ladder otherwise), writes
 // Π' = Π + B·Δ in increment form (the round trip Π → phase → Π would bias |Π| by about an
 // ulp per step), and turns the attitude by the minimal rotations a(Π) and the
-// precession angle ψ, integrated by 7-point Gauss–Legendre on panels |λ|h_p ≤ ½ [F6]; after
+// precession angle ψ, integrated by 3-, 5- or 7-point Gauss–Legendre (by the panel's span)
+// on panels |λ|h_p ≤ ½ [F6]; after
 // each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
 // dn² = m' + m cn² (chained additions are unstable next to the separatrix). The quaternion
 // is a product of unit factors, kept unit by a Newton step at the end (q must come in unit).

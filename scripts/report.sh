@@ -69,7 +69,7 @@ echo "== trompo-bench: sat1 over 1000 orbits -> $out/satellite_series.csv"
 echo "== report"
 PYTHONPATH=scripts /usr/bin/python3 -m report "$out"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
-  cp "$out"/{work_precision,work_precision_core,frontier,energy_vs_h,energy_over_time,newton_vs_h,satellite}.png docs/img/
+  cp "$out"/{work_precision,work_precision_core,frontier,energy_vs_h,energy_over_time,newton_vs_h,satellite,adaptive_tolerance,adaptive_work_precision}.png docs/img/
   mkdir -p docs/img/families  # the families (docs/families.md, scripts/report/families.py)
   cp "$out"/{work_precision,work_precision_gen-alpha,work_precision_constrained,work_precision_energy-decaying,invariants_families,large_step_ht0}.png docs/img/families/
   echo "   plots copied to docs/img/; docs/accuracy.md written whole from this run"

@@ -1,6 +1,8 @@
 // The adaptive driver, its dense output and events (include/trompo/drivers/adaptive.hpp,
-// dense_output.hpp; docs/adaptive.md, docs/theory.md §15):
+// dense_output.hpp; docs/adaptive.md, docs/theory.md §16):
 //   1. tolerance proportionality against the closed forms (HT0, HT1, FB1 at orders 2, 4, 6);
+//      the defect estimate against the true local error; the tolerance over the span or per
+//      unit time, the defect estimate against step doubling;
 //   2. H and μ exact for Simo-κ under adaptive steps, in both controls;
 //   3. dense output: orthogonal, and of order 6 (quintic) / 4 (cubic) per step, measured;
 //   4. events against the Lagrange top's closed-form turning points; terminal events;
@@ -114,6 +116,89 @@ TEST_CASE("adaptive: end error proportional to the tolerance (HT0, HT1, FB1 at o
   proportionality(cases::fb1(), 10.0, 2, 1e-4, 1e-8);
 }
 
+
+TEST_CASE("adaptive: the defect estimate is the step's local error (orders 2, 4, 6)", "[adaptive]") {
+  // From the exact HT0 state at t = 0.3, one step of the composition; the true local error
+  // is the step's end against the closed form; the estimate [D4] from the step's interpolant
+  // must approach it (ratio → 1) and fall like h^{p+1}.
+  const auto c = cases::ht0();
+  const Exact ex = exact_of(c);
+  for (int order : {2, 4, 6}) {
+    ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, order);
+    const int points = order <= 2 ? 3 : order <= 4 ? 4 : 5;
+    double prev = 0;
+    for (double h : {0.02, 0.01, 0.005}) {
+      State<double> a;
+      a.time = 0.3;
+      a.rotation = SO3<double>::from_matrix(ex.rotation(a.time), 1e-8);
+      a.omega = ex.omega(a.time);
+      State<double> b = a;
+      const double t1 = a.time + h;
+      REQUIRE(stepper.step(b, t1 - a.time).ok());
+      b.time = t1;
+      const DenseNode<double> na = dense_node(c.scene, a), nb = dense_node(c.scene, b);
+      V3 e_rot, e_om;
+      defect_estimate(c.scene, na, nb, LieHermite<double>(na, nb), points, e_rot, e_om);
+      // the true error in the same chart: φ − ξ_z(h), ξ_z(h) = log(Λ_aᵀ Λ_exact(t1))
+      const V3 xi_exact = (a.rotation.inverse() * SO3<double>::from_matrix(ex.rotation(t1), 1e-8)).log();
+      const V3 true_rot = (a.rotation.inverse() * b.rotation).log() - xi_exact;
+      const V3 true_om = b.omega - ex.omega(t1);
+      const double rel_rot = (e_rot - true_rot).norm() / true_rot.norm();
+      const double rel_om = (e_om - true_om).norm() / true_om.norm();
+      std::printf("defect estimate, order %d h %.3f: |e_rot| %.3e (true %.3e, off %.3f), |e_om| %.3e (true %.3e, off %.3f)",
+                  order, h, e_rot.norm(), true_rot.norm(), rel_rot, e_om.norm(), true_om.norm(), rel_om);
+      if (prev > 0) std::printf(", fell by %.1f (2^%d = %d)", prev / e_om.norm(), order + 1, 1 << (order + 1));
+      std::printf("\n");
+      if (h < 0.01) {
+        // Orders 2 and 4: the local error itself, to O(h·|J|) (h|Ω| = 0.25 here). Order 6:
+        // the quintic interpolant's own error enters at the same O(h⁷) (docs/theory.md
+        // [D4]): the size is right, the direction is not.
+        CHECK(e_rot.norm() / true_rot.norm() >= 0.5);
+        CHECK(e_rot.norm() / true_rot.norm() <= 2);
+        CHECK(e_om.norm() / true_om.norm() >= 0.5);
+        CHECK(e_om.norm() / true_om.norm() <= 2);
+        if (order <= 4) {
+          CHECK(rel_rot <= 0.1);
+          CHECK(rel_om <= 0.15);
+        }
+        CHECK(prev / e_om.norm() >= 0.8 * (1 << (order + 1)));  // falls like h^{p+1}
+        CHECK(prev / e_om.norm() <= 1.25 * (1 << (order + 1)));
+      }
+      prev = e_om.norm();
+    }
+  }
+}
+
+TEST_CASE("adaptive: the tolerance over the span or per unit time; defect against doubling", "[adaptive]") {
+  // FB1 to t = 10 at order 4: over the span the end error is ≈ tol, per unit time ≈ tol·T;
+  // step doubling meets the same tolerance with three steps per attempt.
+  const auto c = cases::fb1();
+  const Exact ex = exact_of(c);
+  ComposedStepper<SimoKappa, Free> stepper(SimoKappa{}, c.scene, 4);
+  double err[3];
+  std::int64_t base[3];
+  for (int k = 0; k < 3; ++k) {
+    AdaptiveOptions<double> opt;
+    opt.rtol = opt.atol = 1e-8;
+    opt.tolerance_over_span = k != 1;
+    opt.estimate = k == 2 ? ErrorEstimate::doubling : ErrorEstimate::defect;
+    State<double> s = c.initial;
+    const AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, 10.0, opt);
+    REQUIRE(sum.ok());
+    err[k] = state_error(s, ex);
+    base[k] = sum.base_steps;
+    std::printf("FB1 order 4 rtol 1e-8 %s, %s: %lld accepted, %lld steps taken, error %.3e\n",
+                k == 1 ? "per unit time" : "over the span", k == 2 ? "doubling" : "defect",
+                static_cast<long long>(sum.accepted), static_cast<long long>(sum.base_steps), err[k]);
+  }
+  CHECK(err[0] >= 0.1e-8);
+  CHECK(err[0] <= 3e-8);
+  CHECK(err[1] / err[0] >= 5);  // T = 10
+  CHECK(err[1] / err[0] <= 20);
+  CHECK(err[2] <= 3e-8);
+  // doubling: three steps per attempt (advancing with the halves), the defect one: 1.5× the steps
+  CHECK(static_cast<double>(base[2]) >= 1.3 * static_cast<double>(base[0]));
+}
 
 TEST_CASE("adaptive: H and mu exact for Simo-kappa under adaptive steps", "[adaptive]") {
   for (int order : {2, 4, 6}) {
@@ -239,6 +324,8 @@ TEST_CASE("events: nutation extrema of HT0 against the closed form", "[adaptive]
   const double t_end = 100.25 * period;
   const std::vector<Event<double>> ev{events::by_name(c.scene, "nutation-max"), events::by_name(c.scene, "nutation-min")};
   const AdaptiveRun<double> run = solve(stepper, c.initial, t_end, opt, {}, ev, false);
+  INFO(run.summary.message() << " at t = " << run.summary.time << " after " << run.summary.accepted << " steps, "
+                             << run.summary.rejected << " rejected, " << run.summary.failures << " failures");
   REQUIRE(run.success());
   const std::vector<double> maxima = turning_points(top, 0, t_end, true), minima = turning_points(top, 0, t_end, false);
   std::printf("HT0: nutation period %.15f s; %zu maxima, %zu minima expected; found %zu, %zu in %lld steps\n", period,
@@ -254,18 +341,27 @@ TEST_CASE("events: nutation extrema of HT0 against the closed form", "[adaptive]
   }
   for (std::size_t i = 0; i < minima.size(); ++i) worst = std::max(worst, std::abs(run.events[1][i].time - minima[i]));
   std::printf("HT0: largest event time error %.3e s\n", worst);
-  // The event times carry the solution's phase error, which grows like tol·t (error per
-  // unit step, [A2]): 1.4e-8 s at t = 118 for rtol 1e-10 (the issue's 1e-10 s target needs
-  // a tighter tolerance). Each error within 2e-10·(1 + t) s.
-  for (std::size_t i = 0; i < maxima.size(); ++i) CHECK(std::abs(run.events[0][i].time - maxima[i]) <= 2e-10 * (1 + maxima[i]));
-  for (std::size_t i = 0; i < minima.size(); ++i) CHECK(std::abs(run.events[1][i].time - minima[i]) <= 2e-10 * (1 + minima[i]));
+  // The event times carry the solution's phase error. The tolerance bounds the error at
+  // the end of the span (tolerance_over_span, [A2]); at rtol = 1e-10 the run takes ~1.1e5
+  // steps (1e6 base steps), and the round-off drift of μ (linear, ~1.5e-14 per second here,
+  // the same at fixed h) moves the nutation frequency: the phase error grows like t², the
+  // same at rtol 1e-10 over the span or 3e-12 per unit time (docs/adaptive.md). Within
+  // 1e-10 s up to t = 50 (the first 84 extrema), within 1e-9 s for all 200.
+  double worst_early = 0;
+  for (std::size_t i = 0; i < maxima.size(); ++i)
+    if (maxima[i] <= 50) worst_early = std::max(worst_early, std::abs(run.events[0][i].time - maxima[i]));
+  for (std::size_t i = 0; i < minima.size(); ++i)
+    if (minima[i] <= 50) worst_early = std::max(worst_early, std::abs(run.events[1][i].time - minima[i]));
+  std::printf("HT0: largest event time error up to t = 50: %.3e s\n", worst_early);
+  CHECK(worst_early <= 1e-10);
+  CHECK(worst <= 1e-9);
 }
 
 TEST_CASE("events: a terminal event ends the run with a real step, t_eval and solution(t)", "[adaptive][events]") {
   const auto c = cases::ht0();
   const auto& g = c.scene.effect<UniformGravity<double>>();
   const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
-  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 4);
+  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 6);
   AdaptiveOptions<double> opt;
   opt.rtol = opt.atol = 1e-9;
   std::vector<Event<double>> ev{events::nutation(c.scene, true, 3)};
@@ -281,6 +377,7 @@ TEST_CASE("events: a terminal event ends the run with a real step, t_eval and so
   CHECK(run.solution.t_end() == end.time);
   // the real step keeps H and μ
   CHECK(std::abs(c.scene.energy(end) / c.scene.energy(c.initial) - 1) <= 1e-13);
+  INFO("mu " << c.scene.momentum_map(c.initial) << " -> relative change " << std::abs(c.scene.momentum_map(end) / c.scene.momentum_map(c.initial) - 1));
   CHECK(std::abs(c.scene.momentum_map(end) / c.scene.momentum_map(c.initial) - 1) <= 1e-13);
   // t_eval: rows only up to the event (5.0 is beyond it), at exactly those times
   REQUIRE(run.states.size() == 4);

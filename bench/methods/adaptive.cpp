@@ -12,8 +12,8 @@
 // dopri5 at the same tolerances (sweep/<case>/odeint-dopri5/tol:…), all from the core run.
 // Counters of a sweep: as the fixed-h sweeps (err_rot = ‖ΔΛ‖_F at the end against the case's
 // reference, max_dH = max |ΔH/H0|, steps = accepted steps, h = mean step) plus accepted,
-// rejected, and newton per accepted step (all attempts' iterations). scripts/report_adaptive.py
-// makes the table of docs/adaptive.md from the JSON.
+// rejected, and newton per accepted step (all attempts' iterations). scripts/report/adaptive.py
+// makes the figures and tables of docs/accuracy.md's "Adaptive steps" from the JSON.
 #include <cmath>
 #include <string>
 
@@ -88,8 +88,8 @@ void register_tolerance_sweep(const Problem<SceneT>& p, const std::string& metho
 
 /// step-adaptive/<case>/<method>: the time of one accepted adaptive step at h = h_step
 /// (max_step = first_step = h_step and a tolerance loose enough that no step is rejected):
-/// the estimator's Ψ_h beside the two Ψ_{h/2} the run advances with, its norm and the
-/// controller [A1]–[A3]. ns_per_step is the run's time over its accepted steps.
+/// the step, its error estimate (the defect [D4] up to order 6), its norm and the controller
+/// [A1]–[A3]. ns_per_step is the run's time over its accepted steps.
 template <class SceneT, class MakeStepper>
 void register_adaptive_step(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
                             MakeStepper make) {
@@ -99,6 +99,7 @@ void register_adaptive_step(const Problem<SceneT>& p, const std::string& method,
     AdaptiveOptions<double> opt;
     opt.rtol = 1e-2;
     opt.atol = 1e-2;
+    opt.tolerance_over_span = false;  // per unit time: the same test whatever the run's length
     opt.first_step = p.h_step;
     opt.max_step = p.h_step;
     const double t_end = p.c.initial.time + 1000 * p.h_step;

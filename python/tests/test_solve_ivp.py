@@ -31,6 +31,20 @@ def test_invariants_and_events():
     assert np.max(np.abs(res.mu / res.mu[0] - 1)) <= 1e-13
 
 
+def test_tolerance_scope_and_estimate():
+    # over the span (default) the end error is ~tol; per unit time ("time") ~tol*T: fewer steps
+    span = trompo.solve_ivp("ht0", (0, 4), rtol=1e-8, atol=1e-8, order=4)
+    per_time = trompo.solve_ivp("ht0", (0, 4), rtol=1e-8, atol=1e-8, order=4, tol_scope="time")
+    doubling = trompo.solve_ivp("ht0", (0, 4), rtol=1e-8, atol=1e-8, order=4, estimate="doubling")
+    assert span.success and per_time.success and doubling.success
+    assert per_time.nsteps < span.nsteps
+    assert np.max(np.abs(doubling.H / doubling.H[0] - 1)) <= 1e-13
+    with pytest.raises(ValueError, match="tol-scope"):
+        trompo.solve_ivp("ht0", (0, 1), rtol=1e-6, tol_scope="orbit")
+    with pytest.raises(ValueError, match="estimate"):
+        trompo.solve_ivp("ht0", (0, 1), rtol=1e-6, estimate="guess")
+
+
 def test_bad_input():
     with pytest.raises(ValueError, match="rtol"):
         trompo.solve_ivp("ht1", (0, 1), rtol=0)

@@ -7,7 +7,8 @@ Reads  REPORT_DIR/bench.json            (trompo-bench --benchmark_out, both fami
 Writes REPORT_DIR/report.md, sweep.csv, step.csv, frontier.csv, attitude_only.csv,
        splitting_targets.csv, families.md, accuracy.md (the docs page, whole) and the plots
        work_precision*.png, frontier.png, energy_vs_h.png, newton_vs_h.png,
-       energy_over_time.png, satellite.png, invariants_families.png, large_step_ht0.png
+       energy_over_time.png, satellite.png, invariants_families.png, large_step_ht0.png,
+       adaptive_tolerance.png, adaptive_work_precision.png (report/adaptive.py)
 
 With TROMPO_UPDATE_DOCS=1 in the environment it also copies accuracy.md over
 docs/accuracy.md.

@@ -9,7 +9,7 @@ and with TROMPO_UPDATE_DOCS=1 over docs/accuracy.md. Change the page here, not b
 import math
 import os
 
-from . import families
+from . import adaptive, families
 from .core import method_title
 from .common import CASES, EXACT_SCHEMES, cheapest, fmt, is_dopri, is_rk4, ok_rows
 
@@ -234,6 +234,9 @@ def page(report_dir, sweep, steps, fr, bound_rot, bound_dH):
               "--trompo_satellite_series): above, the local vertical in body axes over the first 20 minutes (one dot per step); below, "
               "the largest |ΔE_J/E_J| of each orbit, SABA₄C at h = 8 s (its cheapest run to 1e-8 over 10 orbits) "
               "against dopri5 at tolerance 1e-10 (its run to 1e-6).", ""]
+    ad = adaptive.section(report_dir)
+    if ad:
+        L += [""] + ad
     L += ["", "## Newton", "", "![Newton iterations per base step vs h](img/newton_vs_h.png)", "",
           "Corrections per base step (full Newton and chord steps alike; see [design.md](design.md#simplified-newton) "
           "for the simplified Newton). A chord correction costs a residual evaluation and a 3×3 matrix-vector "

@@ -14,6 +14,14 @@ check "ends at t_end" '[ "$(tail -1 "$tmp/a.csv" | cut -d, -f1)" = "2" ]'
 check "steps are not uniform" '[ $(awk -F, "NR>2 {printf \"%.6f\\n\", \$1 - p} NR>1 {p=\$1}" "$tmp/a.csv" | sort -u | wc -l) -gt 3 ]'
 check "H and mu constant to 1e-13 relative" 'awk -F, "NR==2 {H=\$14; m=\$15} NR>2 {d=(\$14-H)/H; e=(\$15-m)/m; if (d<0) d=-d; if (e<0) e=-e; if (d>1e-13 || e>1e-13) bad=1} END {exit bad}" "$tmp/a.csv"'
 
+# --tol-scope time: the tolerance per unit time, so over t = 2 the end error may reach 2·tol
+# (fewer steps); --estimate doubling: three steps per attempt
+"$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --tol-scope time >/dev/null 2>"$tmp/ts.err"; rc=$?
+steps() { sed -n 's/.*: \([0-9]*\) accepted.*/\1/p' "$1"; }
+check "--tol-scope time: fewer steps than the span's" '[ $rc -eq 0 ] && [ "$(steps "$tmp/ts.err")" -lt "$(steps "$tmp/a.err")" ]'
+"$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --estimate doubling >/dev/null 2>"$tmp/d.err"; rc=$?
+check "--estimate doubling runs" '[ $rc -eq 0 ] && grep -q "reached t_end" "$tmp/d.err"'
+
 "$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --t-eval 0,0.25,0.5,1.75 >"$tmp/t.csv" 2>/dev/null; rc=$?
 check "--t-eval: exactly those times" '[ $rc -eq 0 ] && [ "$(tail -n +2 "$tmp/t.csv" | cut -d, -f1 | tr "\n" " ")" = "0 0.25 0.5 1.75 " ]'
 printf '0.125\n\n0.375\n' >"$tmp/times.txt"
@@ -43,6 +51,9 @@ bad "--t-eval outside" --case ht1 --rtol 1e-6 --t-eval 0.5,20
 bad "--t-eval unsorted" --case ht1 --rtol 1e-6 --t-eval 0.5,0.2
 bad "--t-eval with --every" --case ht1 --rtol 1e-6 --t-eval 0.5 --every 2
 bad "--control unknown" --case ht1 --rtol 1e-6 --control fast
+bad "--tol-scope unknown" --case ht1 --rtol 1e-6 --tol-scope orbit
+bad "--estimate unknown" --case ht1 --rtol 1e-6 --estimate guess
+bad "--estimate without --rtol" --case ht1 --estimate defect
 bad "--event unknown" --case ht1 --rtol 1e-6 --event wobble
 bad "--event nutation on a free body" --case fb1 --rtol 1e-6 --event nutation-max
 bad "--event-csv without --event" --case ht1 --rtol 1e-6 --event-csv "$tmp/x.csv"

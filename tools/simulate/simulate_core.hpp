@@ -100,8 +100,12 @@ constexpr const char* kUsageFlags =
     "  --threads N                  with --ensemble: worker threads (default 0: every core)\n"
     // ---- adaptive steps (docs/adaptive.md) ----
     "  --rtol R [--atol A]          adaptive steps to tolerances R, A (default A 1e-6); --dt is the first step\n"
-    "  --control tolerance|reversible   step doubling + PI control (default), or Hairer-Soderlind's\n"
+    "  --control tolerance|reversible   error estimate + PI control (default), or Hairer-Soderlind's\n"
     "                               time-reversible step density (conservative scenes, long runs)\n"
+    "  --tol-scope span|time        the tolerances bound the end error of the run (default), or the\n"
+    "                               error per unit time (the end error then grows like tol*t)\n"
+    "  --estimate automatic|defect|doubling   tolerance mode's error estimate (default automatic:\n"
+    "                               the interpolant's defect up to order 6, step doubling above)\n"
     "  --t-eval T1,T2,...|@FILE     rows at exactly these times (dense output), and only these\n"
     "  --event NAME[:terminal[:N]]  nutation-max|nutation-min|axis-crossing|flip (repeatable)\n"
     "  --event-csv FILE             one row per event: event, then the usual columns\n";
@@ -112,6 +116,8 @@ struct AdaptiveFlags {
   bool on = false;
   double rtol = 1e-3, atol = 1e-6;  ///< SciPy's defaults (--rtol is required to switch on)
   std::string control = "tolerance";
+  std::string tol_scope = "span";      ///< --tol-scope span|time
+  std::string estimate = "automatic";  ///< --estimate automatic|defect|doubling
   std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
   std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
   std::string event_csv;                             ///< --event-csv FILE
@@ -261,6 +267,10 @@ inline bool parse_adaptive_flag(const std::string& flag, const std::string& valu
     a.atol = parse_number(flag, value);
   } else if (flag == "--control") {
     a.control = value;
+  } else if (flag == "--tol-scope") {
+    a.tol_scope = value;
+  } else if (flag == "--estimate") {
+    a.estimate = value;
   } else if (flag == "--t-eval") {
     if (!value.empty() && value[0] == '@') {  // @FILE: one time a line (blank lines skipped)
       std::ifstream in(value.substr(1));
@@ -504,7 +514,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
 inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags) {
   const AdaptiveFlags& a = c.adaptive;
   if (!a.on) {
-    for (const char* f : {"--atol", "--control", "--t-eval", "--event", "--event-csv"})
+    for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--t-eval", "--event", "--event-csv"})
       if (flags.count(f)) throw invalid_input(std::string(f) + ": only with adaptive steps (give --rtol)");
     return;
   }
@@ -512,6 +522,10 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
   if (!(std::isfinite(a.atol) && a.atol >= 0)) throw invalid_input("--atol: must be finite and >= 0, got " + flags.at("--atol"));
   if (a.control != "tolerance" && a.control != "reversible")
     throw invalid_input("--control: must be tolerance or reversible, got '" + a.control + "'");
+  if (a.tol_scope != "span" && a.tol_scope != "time")
+    throw invalid_input("--tol-scope: must be span or time, got '" + a.tol_scope + "'");
+  if (a.estimate != "automatic" && a.estimate != "defect" && a.estimate != "doubling")
+    throw invalid_input("--estimate: must be automatic, defect or doubling, got '" + a.estimate + "'");
   if (!c.ensemble.empty()) throw invalid_input("--rtol: adaptive steps are not available with --ensemble");
   if (c.scheme == "exact") throw invalid_input("--rtol: --scheme exact has no steps to adapt (use --t-eval with a scheme)");
   if (c.processed)

@@ -11,12 +11,18 @@
 //   AdaptiveRun<double> run = solve(stepper, c.initial, c.t_end, opt, {0.5, 1.0}, {nutation_max(c.scene)});
 //   State<double> mid = run.solution(0.25);
 //
-// Tolerance mode [A1]. Each step of size h is taken twice: Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y)
-// (step doubling); the run advances with the two half steps, a product of base steps, so
-// whatever the scheme keeps (H and μ for Simo-κ, also in its compositions) stays exact for
-// the whole variable-step run. The extrapolated value is never used (it would break H, μ).
-// The estimate e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1) is measured in the frame-invariant RMS norm
-// [A2] and divided by |h| (error per unit step), so that the global error is ∝ tol.
+// Tolerance mode [A1]. The run advances with steps of the scheme only (a composition whole),
+// so whatever the scheme keeps (H and μ for Simo-κ, also in its compositions) stays exact
+// for the whole variable-step run; no extrapolated or corrected value is ever used (it
+// would break H, μ). Two error estimates (`AdaptiveOptions::estimate`):
+//  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
+//    the integral of the defect u' − f(u) of the step's quintic Lie–Hermite interpolant u,
+//    by a Lobatto rule whose ends are the nodes' rates: 1, 2 or 3 new evaluations of Ω̇ for
+//    order ≤ 2, 4, 6, plus the end node (Ω̇, Ω̈), which the dense output and events reuse;
+//  - doubling (orders above 6): Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y), the run advancing with the
+//    halves, e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1); three steps per attempt.
+// The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
+// per unit step), so that the global error is ∝ tol.
 // Söderlind's H211b filter [A3] picks the next h; a rejected step retries with the
 // elementary controller; a Newton failure (any StepStatus but ok) is a rejection that
 // quarters h and caps the next growth at 1.5×; the failure contract holds: every attempt
@@ -66,8 +72,15 @@ namespace trompo {
 
 /// How the adaptive driver picks h.
 enum class StepControl {
-  tolerance,  ///< step doubling, H211b on the error per unit step [A2], [A3]
+  tolerance,  ///< an error estimate per step, H211b on the error per unit step [A2], [A3]
   reversible  ///< Hairer–Söderlind step density, explicit and time-reversible [A5]
+};
+
+/// How tolerance mode estimates the error of a step [A3].
+enum class ErrorEstimate {
+  automatic,  ///< defect for schemes of order ≤ 6, doubling above
+  defect,     ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–3 evaluations of Ω̇
+  doubling    ///< Ψ_h against Ψ_{h/2}∘Ψ_{h/2}, advancing with the halves: three steps per attempt
 };
 
 /// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
@@ -75,8 +88,15 @@ template <class Scalar>
 struct AdaptiveOptions {
   Scalar rtol = Scalar(1e-6);             ///< relative tolerance (> 0)
   Scalar atol = Scalar(1e-6);             ///< absolute tolerance (≥ 0; rad and rad/s)
-  /// Tolerance (step doubling + PI control) or reversible (step density) mode.
+  /// Tolerance (error estimate + PI control) or reversible (step density) mode.
   StepControl control = StepControl::tolerance;
+  /// Tolerance mode: the error estimate (automatic: defect up to order 6, else doubling).
+  ErrorEstimate estimate = ErrorEstimate::automatic;
+  /// Tolerance mode: true (default) — the tolerances bound the error at the end of the span
+  /// T = |t_end − t₀|: the error per unit step is held to tol/T, so that the end error,
+  /// which grows like t for a rigid body (its phase), is ≈ tol whatever T [A2]; false — the
+  /// tolerances bound the error per unit time, and the end error grows like tol·T.
+  bool tolerance_over_span = true;
   Scalar first_step = Scalar(0);          ///< |h| of the first step; 0: selected [A3]
   Scalar max_step = std::numeric_limits<Scalar>::infinity();  ///< largest |h|
   /// Largest rotation per step, |h|·|Ω| (rad): keeps the Newton increments of the
@@ -338,10 +358,25 @@ struct AdaptiveLoop {
 
   AdaptiveLoop(const Stepper& st, Traj& tr, Scalar te, const AdaptiveOptions<Scalar>& o, Observer& ob, Sink& si,
                const std::vector<Event<Scalar>>* ev)
-      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si), event_list(ev) {}
+      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si), event_list(ev) {
+    using std::abs;
+    span = opt.tolerance_over_span ? abs(te - tr.time) : Scalar(1);
+    if (!(span > 0)) span = Scalar(1);
+  }
+  /// The span T the tolerances are spread over (1: per unit time).
+  Scalar span = Scalar(1);
 
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
   bool dense() const { return observed || (event_list && !event_list->empty()); }
+
+  // Tolerance mode with the defect estimate [D4]: the Lobatto rule's size (3, 4, 5 points
+  // for order ≤ 2, 4, 6), and the dense nodes of the current state (a) and of the attempt (b),
+  // kept so that each accepted step evaluates one new node.
+  bool use_defect = false;
+  int lobatto_points = 0;
+  DenseNode<Scalar> node_a{}, node_b{};
+  bool have_node_a = false;
+  LieHermite<Scalar> attempt_segment{};
 
   // event scratch, reserved before the loop
   std::vector<Scalar> g_prev{};
@@ -358,10 +393,7 @@ struct AdaptiveLoop {
     const Scalar k = Scalar((1 << stepper.order()) - 1);  // 2^p − 1
     const Vector3 e_rot = (coarse.rotation.inverse() * fine.rotation).log() / k;
     const Vector3 e_om = (fine.omega - coarse.omega) / k;
-    const Scalar s_rot = opt.atol + opt.rtol;
-    const Scalar s_om = opt.atol + opt.rtol * std::max(start.omega.norm(), fine.omega.norm());
-    const Scalar a = e_rot.norm() / s_rot, b = e_om.norm() / s_om;
-    return sqrt((a * a + b * b) / Scalar(2)) / abs(h);
+    return error_norm(e_rot, e_om, start.omega.norm(), fine.omega.norm(), h);
   }
 
   /// |h| allowed by max_step and max_rotation at Ω.
@@ -460,9 +492,47 @@ struct AdaptiveLoop {
   }
 
   // ---- the step ------------------------------------------------------------------------
-  /// One attempt of size h with step doubling; on success `fine` holds Ψ_{h/2}²(y) and the
+  /// The RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of a step a → b:
+  /// r = RMS(|e_ξ|/(s_Λ|h|/T + 8ε), |e_Ω|/(s_Ω|h|/T + 8ε|Ω|)), accepted when r ≤ 1. The
+  /// 8ε terms are the estimate's round-off (measured ≤ 5ε and ≤ 2ε|Ω| on the standard
+  /// cases): a step is never refused for its rounding, which does not shrink with h.
+  Scalar error_norm(const Vector3& e_rot, const Vector3& e_om, Scalar omega_a, Scalar omega_b, Scalar h) const {
+    using std::abs;
+    using std::sqrt;
+    constexpr Scalar noise = Scalar(8) * std::numeric_limits<Scalar>::epsilon();
+    const Scalar w = std::max(omega_a, omega_b);
+    const Scalar per_step = abs(h) / span;  // error per unit step against tol/T
+    const Scalar s_rot = (opt.atol + opt.rtol) * per_step + noise;
+    const Scalar s_om = (opt.atol + opt.rtol * w) * per_step + noise * w;
+    const Scalar a = e_rot.norm() / s_rot, b = e_om.norm() / s_om;
+    return sqrt((a * a + b * b) / Scalar(2));
+  }
+
+  /// One attempt of size h ending at t_next: on success `next` holds the state the run
+  /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/2}²(y) with doubling) and the
   /// return value is the error per unit step; on failure the status is set, traj untouched.
-  Scalar attempt(Scalar h, Traj& fine, StepStatus& status) {
+  Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
+    if (!use_defect) return attempt_doubling(h, next, status);
+    next = traj;
+    const StepReport<Scalar> r = stepper.step(next, h);
+    sum.iterations += r.iterations;
+    ++sum.base_steps;
+    status = r.status;
+    if (!r.ok()) return Scalar(0);
+    next.time = t_next;
+    if (!have_node_a) {
+      node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
+      have_node_a = true;
+    }
+    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
+    attempt_segment = LieHermite<Scalar>(node_a, node_b, true);
+    Vector3 e_rot, e_om;
+    defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, lobatto_points, e_rot, e_om);
+    return error_norm(e_rot, e_om, traj.omega.norm(), next.omega.norm(), h);
+  }
+
+  /// Step doubling: `fine` = Ψ_{h/2}²(y), the estimate (Ψ_{h/2}² − Ψ_h)/(2^p − 1).
+  Scalar attempt_doubling(Scalar h, Traj& fine, StepStatus& status) {
     Traj coarse = traj;
     fine = traj;
     StepReport<Scalar> r = stepper.step(coarse, h);
@@ -486,15 +556,20 @@ struct AdaptiveLoop {
 
   /// Commits `next` (ending at t_next), reports the step and its events. Returns false when
   /// a terminal event ended the run (traj then at the event time).
-  bool commit(Traj& next, Scalar t_next) {
+  /// `node_b_ready`: node_b (and attempt_segment) belong to `next` (the defect estimate).
+  bool commit(Traj& next, Scalar t_next, bool node_b_ready = false) {
     next.time = t_next;
     if (!dense()) {
       traj = next;
+      if (node_b_ready) node_a = node_b;
+      have_node_a = node_b_ready;
       return true;
     }
-    const DenseNode<Scalar> a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
-    const DenseNode<Scalar> b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
-    const LieHermite<Scalar> seg(a, b, opt.quintic);
+    if (!have_node_a) node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
+    if (!node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
+    const DenseNode<Scalar>& a = node_a;
+    const DenseNode<Scalar>& b = node_b;
+    const LieHermite<Scalar> seg = node_b_ready && opt.quintic ? attempt_segment : LieHermite<Scalar>(a, b, opt.quintic);
     if (event_list && !event_list->empty()) {
       locate(seg, traj.time, t_next);
       for (const Occurrence<Scalar>& o : found) {
@@ -520,6 +595,7 @@ struct AdaptiveLoop {
         if constexpr (observed) notify(a, e);
         if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, static_cast<const State<Scalar>&>(real), true);
         traj = real;
+        have_node_a = false;
         sum.status = AdaptiveStatus::event;
         return false;
       }
@@ -530,6 +606,8 @@ struct AdaptiveLoop {
     }
     if constexpr (observed) notify(a, b);
     traj = next;
+    node_a = node_b;
+    have_node_a = true;
     return true;
   }
 
@@ -557,7 +635,9 @@ struct AdaptiveLoop {
     Scalar r_prev = Scalar(1), h_prev = h;
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
-    Traj fine = traj;
+    use_defect = opt.estimate == ErrorEstimate::defect || (opt.estimate == ErrorEstimate::automatic && p <= 6);
+    lobatto_points = p <= 2 ? 3 : p <= 4 ? 4 : 5;
+    Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {
       if (++attempts > opt.max_steps) {
@@ -566,13 +646,18 @@ struct AdaptiveLoop {
       }
       h = dir * std::min(abs(h), h_cap(traj.omega));
       bool last = false;
-      const Scalar h_try = clip(h, last);
-      if (too_small(h_try) && !last) {
+      const Scalar h_clipped = clip(h, last);
+      if (too_small(h_clipped) && !last) {
         sum.status = AdaptiveStatus::failed;
         return;
       }
+      // The step actually taken is the difference of the two stored times, so that the
+      // times are the sum of the steps and the defect estimate [D4] sees the same h (an
+      // h off by an ulp of t would show as an error of |Ω̇|·ulp(t), above a tight tol).
+      const Scalar t_next = last ? t_end : traj.time + h_clipped;
+      const Scalar h_try = t_next - traj.time;
       StepStatus status = StepStatus::ok;
-      const Scalar r = attempt(h_try, fine, status);
+      const Scalar r = attempt(h_try, t_next, next, status);
       if (status != StepStatus::ok) {  // Newton failure: shorter step, nothing committed
         ++sum.failures;
         sum.failure = status;
@@ -605,8 +690,7 @@ struct AdaptiveLoop {
       growth_cap = opt.max_factor;
       ++sum.accepted;
       sum.h_last = h_try;
-      const Scalar t_next = last ? t_end : traj.time + h_try;
-      if (!commit(fine, t_next)) break;
+      if (!commit(next, t_next, use_defect)) break;
       r_prev = rr;
       h_prev = h_try;
       have_prev = true;
@@ -713,6 +797,9 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
     return sum;
   } else {
     options.validate();
+    if (options.estimate == ErrorEstimate::defect && stepper.order() > 6)
+      detail::fail("adaptive: estimate = defect suits schemes of order <= 6 (the quintic interpolant's own error "
+                   "enters at O(h^7)); use doubling or automatic, got order ", stepper.order());
     if (!std::isfinite(static_cast<double>(t_end))) detail::fail("adaptive: t_end must be finite, got ", t_end);
     state.validate();
     detail::AdaptiveLoop<Stepper, StateT, Observer, Sink> loop(stepper, state, t_end, options, observer, sink, event_list);

@@ -155,15 +155,28 @@ class LieHermite {
       s.time = t1_;
       return s;
     }
-    const Scalar th = (t - t0_) / h_;
-    Scalar b[6];
-    basis(th, b);
-    const Vector3 xi = b[1] * d0_ + b[2] * s0_ + b[3] * s1_ + b[4] * d1_ + b[5] * xi1_;
+    Vector3 xi;
+    algebra((t - t0_) / h_, xi, s.omega);
     s.rotation = rotation0_ * SO3<Scalar>::exp(xi);
-    s.omega = b[0] * w0_ + b[1] * wd0_ + b[2] * wdd0_ + b[3] * wdd1_ + b[4] * wd1_ + b[5] * w1_;
     s.time = t;
     return s;
   }
+
+  /// ξ(θ) and Ω(θ) at the fraction θ = (t − t_n)/h of the step: Λ(θ) = Λ_n exp(ξ(θ)^) [D1].
+  void algebra(Scalar theta, Vector3& xi, Vector3& omega) const {
+    Scalar b[6];
+    basis(theta, b);
+    xi = b[1] * d0_ + b[2] * s0_ + b[3] * s1_ + b[4] * d1_ + b[5] * xi1_;
+    omega = b[0] * w0_ + b[1] * wd0_ + b[2] * wdd0_ + b[3] * wdd1_ + b[4] * wd1_ + b[5] * w1_;
+  }
+  /// φ = ξ(1) = log(Λ_nᵀΛ_{n+1}) on the branch of [D1].
+  const Vector3& phi() const { return xi1_; }
+  /// ξ'(1)/h = T(φ)⁻¹Ω_{n+1}: the end's rate in the algebra.
+  Vector3 phi_rate() const { return d1_ / h_; }
+  /// The step h = t_{n+1} − t_n.
+  Scalar step() const { return h_; }
+  /// The attitude at the step's start.
+  const SO3<Scalar>& rotation_start() const { return rotation0_; }
 
   /// Start and end time of the step.
   Scalar t_start() const { return t0_; }
@@ -200,6 +213,53 @@ class LieHermite {
   Vector3 w0_ = Vector3::Zero(), w1_ = Vector3::Zero(), wd0_ = Vector3::Zero(), wd1_ = Vector3::Zero(),
           wdd0_ = Vector3::Zero(), wdd1_ = Vector3::Zero();
 };
+
+/// The local error of the step a → b from the defect of its interpolant [D4]. With z the
+/// exact solution from the start node and u the interpolant, d = u − z obeys
+/// d' = (u' − f(u)) + J d, so the step's local error d(h) = ∫(u' − f(u)) dt + O(h·|d|):
+///   e_ξ = φ − h Σ w_i T(ξ_i)⁻¹ Ω_i,   e_Ω = Ω_{n+1} − Ω_n − h Σ w_i Ω̇(Λ_i, Ω_i, t_i),
+/// a Lobatto rule on [0, 1] whose end terms are the nodes' own rates (no new evaluation
+/// there). The interpolant's own error enters only as O(h·h⁶) (quintic) and the rule's as
+/// O(h^{2n−1}), so `points` = n = 3, 4, 5 (1, 2, 3 interior evaluations) suits schemes of
+/// order ≤ 2, 4, 6. Returns e_ξ (rad) and e_Ω (rad/s).
+template <class Scene>
+void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>& a,
+                     const DenseNode<typename Scene::Scalar>& b, const LieHermite<typename Scene::Scalar>& seg,
+                     int points, Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_rot,
+                     Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_omega) {
+  using Scalar = typename Scene::Scalar;
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  // Lobatto rules on [0, 1]: interior nodes θ_i (the rule is symmetric) and weights.
+  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
+  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
+  Scalar nodes[3], weights[3], w_end;
+  int n_inner;
+  if (points <= 3) {  // Simpson
+    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
+  } else if (points == 4) {
+    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
+    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
+  } else {
+    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
+    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
+    w_end = Scalar(1) / Scalar(20), n_inner = 3;
+  }
+  const Scalar h = seg.step();
+  // the ends: T(0)⁻¹Ω_n = Ω_n, T(φ)⁻¹Ω_{n+1}; Ω̇ of the nodes
+  Vector3 rate_xi = w_end * (a.state.omega + seg.phi_rate());
+  Vector3 rate_omega = w_end * (a.omega_dot + b.omega_dot);
+  for (int i = 0; i < n_inner; ++i) {
+    Vector3 xi;
+    State<Scalar> s;
+    seg.algebra(nodes[i], xi, s.omega);
+    s.rotation = seg.rotation_start() * SO3<Scalar>::exp(xi);
+    s.time = seg.t_start() + nodes[i] * h;
+    rate_xi += weights[i] * (SO3<Scalar>::right_tangent_inverse(xi) * s.omega);
+    rate_omega += weights[i] * omega_rate(scene, s);
+  }
+  e_rot = seg.phi() - h * rate_xi;
+  e_omega = b.state.omega - a.state.omega - h * rate_omega;
+}
 
 /// The dense solution of a run: the accepted steps' nodes, and the state anywhere in the
 /// span by the interpolant of the step that holds t (solution(t)).

@@ -17,8 +17,8 @@
 // would break H, μ). Two error estimates (`AdaptiveOptions::estimate`):
 //  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
 //    the integral of the defect u' − f(u) of the step's quintic Lie–Hermite interpolant u,
-//    by a Lobatto rule whose ends are the nodes' rates: 1, 2 or 3 new evaluations of Ω̇ for
-//    order ≤ 2, 4, 6, plus the end node (Ω̇, Ω̈), which the dense output and events reuse;
+//    by a Lobatto rule whose ends are the nodes' rates: 1 new evaluation of Ω̇ at order 2,
+//    2 at orders 4 and 6, plus the end node (Ω̇, Ω̈), which the dense output and events reuse;
 //  - doubling (orders above 6): Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y), the run advancing with the
 //    halves, e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1); three steps per attempt.
 // The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
@@ -52,6 +52,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -335,6 +336,22 @@ Scalar brent_root(F&& f, Scalar a, Scalar b, Scalar fa, Scalar fb) {
   return b;
 }
 
+/// Whether T is a std::array (a composition's memory, AdaptiveLoop::assign).
+template <class T>
+struct is_std_array : std::false_type {};
+template <class T, std::size_t N>
+struct is_std_array<std::array<T, N>> : std::true_type {};
+/// The memory type of a trajectory (void for a plain State).
+template <class Traj>
+struct trajectory_memory {
+  using type = void;
+};
+template <class Traj>
+  requires requires { typename Traj::Memory; }
+struct trajectory_memory<Traj> {
+  using type = typename Traj::Memory;
+};
+
 /// One event occurrence inside a step.
 template <class Scalar>
 struct Occurrence {
@@ -347,6 +364,8 @@ template <class Stepper, class Traj, class Observer, class Sink>
 struct AdaptiveLoop {
   using Scalar = typename Stepper::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  template <class T>
+  using MemoryOf = typename trajectory_memory<T>::type;
   const Stepper& stepper;
   Traj& traj;
   Scalar t_end;
@@ -369,8 +388,8 @@ struct AdaptiveLoop {
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
   bool dense() const { return observed || (event_list && !event_list->empty()); }
 
-  // Tolerance mode with the defect estimate [D4]: the Lobatto rule's size (3, 4, 5 points
-  // for order ≤ 2, 4, 6), and the dense nodes of the current state (a) and of the attempt (b),
+  // Tolerance mode with the defect estimate [D4]: the Lobatto rule's size (3 points for
+  // order 2, 4 for orders 4 and 6), and the dense nodes of the current state (a) and of the attempt (b),
   // kept so that each accepted step evaluates one new node.
   bool use_defect = false;
   int lobatto_points = 0;
@@ -492,6 +511,19 @@ struct AdaptiveLoop {
   }
 
   // ---- the step ------------------------------------------------------------------------
+  /// to = from. Of a composition's memory (one base memory per sub-step index, for the
+  /// largest composition: 17 × 240 bytes with Simo-κ's history) only the entries its
+  /// sub-steps use are copied: whole copies cost a quarter of an order-2 adaptive step.
+  void assign(Traj& to, const Traj& from) const {
+    if constexpr (requires { stepper.stages(); } && detail::is_std_array<MemoryOf<Traj>>::value) {
+      static_cast<State<Scalar>&>(to) = static_cast<const State<Scalar>&>(from);
+      const std::size_t n = std::min(static_cast<std::size_t>(stepper.stages()), from.memory.size());
+      for (std::size_t i = 0; i < n; ++i) to.memory[i] = from.memory[i];
+    } else {
+      to = from;
+    }
+  }
+
   /// The RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of a step a → b:
   /// r = RMS(|e_ξ|/(s_Λ|h|/T + 8ε), |e_Ω|/(s_Ω|h|/T + 8ε|Ω|)), accepted when r ≤ 1. The
   /// 8ε terms are the estimate's round-off (measured ≤ 5ε and ≤ 2ε|Ω| on the standard
@@ -513,7 +545,7 @@ struct AdaptiveLoop {
   /// return value is the error per unit step; on failure the status is set, traj untouched.
   Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
     if (!use_defect) return attempt_doubling(h, next, status);
-    next = traj;
+    assign(next, traj);
     const StepReport<Scalar> r = stepper.step(next, h);
     sum.iterations += r.iterations;
     ++sum.base_steps;
@@ -534,7 +566,7 @@ struct AdaptiveLoop {
   /// Step doubling: `fine` = Ψ_{h/2}²(y), the estimate (Ψ_{h/2}² − Ψ_h)/(2^p − 1).
   Scalar attempt_doubling(Scalar h, Traj& fine, StepStatus& status) {
     Traj coarse = traj;
-    fine = traj;
+    assign(fine, traj);
     StepReport<Scalar> r = stepper.step(coarse, h);
     sum.iterations += r.iterations;
     ++sum.base_steps;
@@ -560,7 +592,7 @@ struct AdaptiveLoop {
   bool commit(Traj& next, Scalar t_next, bool node_b_ready = false) {
     next.time = t_next;
     if (!dense()) {
-      traj = next;
+      assign(traj, next);
       if (node_b_ready) node_a = node_b;
       have_node_a = node_b_ready;
       return true;
@@ -605,7 +637,7 @@ struct AdaptiveLoop {
       }
     }
     if constexpr (observed) notify(a, b);
-    traj = next;
+    assign(traj, next);
     node_a = node_b;
     have_node_a = true;
     return true;
@@ -629,6 +661,7 @@ struct AdaptiveLoop {
   void run_tolerance() {
     using std::abs;
     using std::pow;
+    using std::sqrt;
     const Scalar dir = direction();
     const int p = stepper.order();
     Scalar h = dir * first_step();
@@ -636,7 +669,7 @@ struct AdaptiveLoop {
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
     use_defect = opt.estimate == ErrorEstimate::defect || (opt.estimate == ErrorEstimate::automatic && p <= 6);
-    lobatto_points = p <= 2 ? 3 : p <= 4 ? 4 : 5;
+    lobatto_points = p <= 2 ? 3 : 4;  // [D4]: Simpson for order 2; 4 points for orders 4 and 6
     Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {
@@ -681,9 +714,8 @@ struct AdaptiveLoop {
       // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
       const Scalar rr = std::max(r, Scalar(1e-10));
       Scalar f;
-      if (have_prev)
-        f = opt.safety * pow(rr, -Scalar(1) / Scalar(4 * p)) * pow(r_prev, -Scalar(1) / Scalar(4 * p)) *
-            pow(h_try / h_prev, -Scalar(0.25));
+      if (have_prev)  // one pow: (r_n r_{n−1})^{−1/4p}, and (h_n/h_{n−1})^{−1/4} by two square roots
+        f = opt.safety * pow(rr * r_prev, -Scalar(1) / Scalar(4 * p)) / sqrt(sqrt(h_try / h_prev));
       else
         f = opt.safety * pow(rr, -Scalar(1) / Scalar(p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
@@ -735,14 +767,14 @@ struct AdaptiveLoop {
       bool last = false;
       const Scalar h = clip(dir * epsilon / std::max(rho, rho_floor), last);
       const Scalar t_next = last ? t_end : traj.time + h;
-      next = traj;
+      assign(next, traj);
       StepReport<Scalar> r = stepper.step(next, h);
       sum.iterations += r.iterations;
       ++sum.base_steps;
       if (!r.ok()) {  // recovery by halves, as integrate(): the interval is kept
         ++sum.failures;
         sum.failure = r.status;
-        next = traj;
+        assign(next, traj);
         const IntegrationSummary<Scalar> s = integrate(stepper, next, t_next, h / Scalar(2));
         sum.iterations += s.iterations;
         sum.base_steps += s.steps + s.substeps;

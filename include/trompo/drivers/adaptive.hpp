@@ -25,8 +25,10 @@
 // per unit step), so that the global error is ∝ tol.
 // Söderlind's H211b filter [A3] picks the next h; a rejected step retries with the
 // elementary controller; a Newton failure (any StepStatus but ok) is a rejection that
-// quarters h and caps the next growth at 1.5×; the failure contract holds: every attempt
-// works on copies of the trajectory (state and memory), committed on acceptance only.
+// quarters h and caps the next growth at 1.5×; the failure contract holds: a failed step
+// leaves the trajectory untouched, and a rejected one is undone (its state put back; a
+// memory that is only a hint, such as Simo-κ's history, keeps that step as a hint, any
+// other memory is stepped in a copy committed on acceptance only).
 // A composition (ComposedStepper) is stepped whole: h changes only between whole
 // composed steps. The processed composition is not accepted (a compile-time error): its
 // processor P_h is tied to h, so every change of h would cost P_{h'}∘P_h⁻¹ (24 base steps,
@@ -393,6 +395,21 @@ struct AdaptiveLoop {
   // kept so that each accepted step evaluates one new node.
   bool use_defect = false;
   int lobatto_points = 0;
+  /// The defect attempt steps `traj` itself when the stepper's memory is only a hint (a
+  /// history predictor) or absent: a rejected step puts back the state alone, the memory
+  /// keeping that step's history as a hint (any memory is a correct start for such a
+  /// scheme), so no copy of the memory is made per step. Otherwise it steps a copy.
+  static constexpr bool in_place = [] {
+    if constexpr (requires(const Stepper& st) {
+                    st.scheme();
+                    st.scene();
+                  })
+      return memory_is_hint_v<std::decay_t<decltype(std::declval<const Stepper&>().scheme())>,
+                              std::decay_t<decltype(std::declval<const Stepper&>().scene())>>;
+    else
+      return false;
+  }();
+  State<Scalar> start_state{};  ///< the state before an in-place attempt
   DenseNode<Scalar> node_a{}, node_b{};
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
@@ -545,22 +562,31 @@ struct AdaptiveLoop {
   /// return value is the error per unit step; on failure the status is set, traj untouched.
   Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
     if (!use_defect) return attempt_doubling(h, next, status);
-    assign(next, traj);
-    const StepReport<Scalar> r = stepper.step(next, h);
-    sum.iterations += r.iterations;
-    ++sum.base_steps;
-    status = r.status;
-    if (!r.ok()) return Scalar(0);
-    next.time = t_next;
     if (!have_node_a) {
       node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
       have_node_a = true;
     }
-    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
+    // In place (a hint memory): the state is kept, and put back by undo() on rejection.
+    Traj& end = in_place ? traj : next;
+    if constexpr (in_place) start_state = static_cast<const State<Scalar>&>(traj);
+    else assign(next, traj);
+    const StepReport<Scalar> r = stepper.step(end, h);  // on failure `end` is untouched
+    sum.iterations += r.iterations;
+    ++sum.base_steps;
+    status = r.status;
+    if (!r.ok()) return Scalar(0);
+    end.time = t_next;
+    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end));
     attempt_segment = LieHermite<Scalar>(node_a, node_b, true);
     Vector3 e_rot, e_om;
     defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, lobatto_points, e_rot, e_om);
-    return error_norm(e_rot, e_om, traj.omega.norm(), next.omega.norm(), h);
+    return error_norm(e_rot, e_om, node_a.state.omega.norm(), end.omega.norm(), h);
+  }
+
+  /// After a rejected attempt: the state before it (stepped in place), or nothing.
+  void undo() {
+    if constexpr (in_place)
+      if (use_defect) static_cast<State<Scalar>&>(traj) = start_state;
   }
 
   /// Step doubling: `fine` = Ψ_{h/2}²(y), the estimate (Ψ_{h/2}² − Ψ_h)/(2^p − 1).
@@ -588,22 +614,26 @@ struct AdaptiveLoop {
 
   /// Commits `next` (ending at t_next), reports the step and its events. Returns false when
   /// a terminal event ended the run (traj then at the event time).
-  /// `node_b_ready`: node_b (and attempt_segment) belong to `next` (the defect estimate).
-  bool commit(Traj& next, Scalar t_next, bool node_b_ready = false) {
-    next.time = t_next;
+  /// `node_b_ready`: node_b (and attempt_segment) belong to the step's end (the defect
+  /// estimate). `stepped_in_place`: the step's end is already `traj` (the defect attempt on
+  /// a hint memory) and its start is `start_state`; otherwise the end is `next`.
+  bool commit(Traj& next, Scalar t_next, bool node_b_ready = false, bool stepped_in_place = false) {
+    Traj& now = stepped_in_place ? traj : next;
+    now.time = t_next;
+    const State<Scalar>& before = stepped_in_place ? start_state : static_cast<const State<Scalar>&>(traj);
     if (!dense()) {
-      assign(traj, next);
+      if (!stepped_in_place) assign(traj, next);
       if (node_b_ready) node_a = node_b;
       have_node_a = node_b_ready;
       return true;
     }
-    if (!have_node_a) node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
-    if (!node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(next));
+    if (!have_node_a) node_a = dense_node(stepper.scene(), before);
+    if (!node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(now));
     const DenseNode<Scalar>& a = node_a;
     const DenseNode<Scalar>& b = node_b;
     const LieHermite<Scalar> seg = node_b_ready && opt.quintic ? attempt_segment : LieHermite<Scalar>(a, b, opt.quintic);
     if (event_list && !event_list->empty()) {
-      locate(seg, traj.time, t_next);
+      locate(seg, before.time, t_next);
       for (const Occurrence<Scalar>& o : found) {
         const std::size_t k = static_cast<std::size_t>(o.index);
         const bool terminal = remaining[k] > 0 && --remaining[k] == 0;
@@ -611,11 +641,13 @@ struct AdaptiveLoop {
           if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
           continue;
         }
-        // A real step from the last node to the event time [A6].
+        // A real step from the last node to the event time [A6] (the memory: the last
+        // accepted step's, or stepped in place, this step's hint).
         Traj real = traj;
+        static_cast<State<Scalar>&>(real) = before;
         IntegrationSummary<Scalar> s;
-        if (!too_small(o.t - traj.time)) {
-          s = integrate(stepper, real, o.t, o.t - traj.time);
+        if (!too_small(o.t - before.time)) {
+          s = integrate(stepper, real, o.t, o.t - before.time);
           sum.iterations += s.iterations;
           sum.base_steps += s.steps + s.substeps;
         }
@@ -632,12 +664,12 @@ struct AdaptiveLoop {
         return false;
       }
       for (std::size_t k = 0; k < event_list->size(); ++k) {
-        const State<Scalar>& s = next;
+        const State<Scalar>& s = now;
         g_prev[k] = (*event_list)[k].g(s.time, s.rotation, s.omega);
       }
     }
     if constexpr (observed) notify(a, b);
-    assign(traj, next);
+    if (!stepped_in_place) assign(traj, next);
     node_a = node_b;
     have_node_a = true;
     return true;
@@ -709,6 +741,7 @@ struct AdaptiveLoop {
                              : opt.min_factor;
         h = h_try * std::min(f, Scalar(0.9));
         growth_cap = Scalar(1);
+        undo();
         continue;
       }
       // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
@@ -722,7 +755,7 @@ struct AdaptiveLoop {
       growth_cap = opt.max_factor;
       ++sum.accepted;
       sum.h_last = h_try;
-      if (!commit(next, t_next, use_defect)) break;
+      if (!commit(next, t_next, use_defect, use_defect && in_place)) break;
       r_prev = rr;
       h_prev = h_try;
       have_prev = true;

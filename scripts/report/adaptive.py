@@ -219,6 +219,27 @@ def targets_table(rows, over):
     return L
 
 
+def _finish_panel(ax, case, dopri_points, xlabel):
+    """dopri5's line (x, err), the title, the labels and the grid of one case's panel."""
+    if dopri_points:
+        ax.loglog([x for x, _ in dopri_points], [e for _, e in dopri_points], color="black", linestyle="-.",
+                  marker="^", markersize=3, label="odeint dopri5")
+    ax.set_title(case.upper())
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("‖Λ − Λref‖ at the end")
+    ax.grid(True, alpha=0.4)
+
+
+def _save(plt, fig, axes, path, title, ncol, bottom):
+    """The legend of the first panel under the figure, the title, and the file."""
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=8, frameon=False)
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, bottom, 1, 0.97))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot(report_dir, adaptive, fixed, dopri):
     import matplotlib
     matplotlib.use("Agg")
@@ -235,24 +256,12 @@ def plot(report_dir, adaptive, fixed, dopri):
                             color="0.9", label="err/tol in [0.1, 30]")
             ax.loglog(tols, tols, color="0.5", linestyle=":", linewidth=1, label="err = tol")
         for (c, m), pts in sorted(adaptive.items()):
-            if c != case:
-                continue
-            ax.loglog([t for t, _ in pts], [max(b["err_rot"], 1e-16) for _, b in pts], marker="o", markersize=3,
-                      color=COLORS.get(m, "gray"), label=TITLES.get(m, m))
-        d = sorted((t, b["err_rot"]) for (c, t), b in dopri.items() if c == case)
-        if d:
-            ax.loglog([t for t, _ in d], [e for _, e in d], color="black", linestyle="-.", marker="^", markersize=3,
-                      label="odeint dopri5")
-        ax.set_title(case.upper())
-        ax.set_xlabel("rtol = atol")
-        ax.set_ylabel("‖Λ − Λref‖ at the end")
-        ax.grid(True, alpha=0.4)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
-    fig.suptitle("Adaptive steps: end error against the tolerance (over the span)")
-    fig.tight_layout(rect=(0, 0.06, 1, 0.97))
-    fig.savefig(os.path.join(report_dir, "adaptive_tolerance.png"), dpi=110)
-    plt.close(fig)
+            if c == case:
+                ax.loglog([t for t, _ in pts], [max(b["err_rot"], 1e-16) for _, b in pts], marker="o",
+                          markersize=3, color=COLORS.get(m, "gray"), label=TITLES.get(m, m))
+        _finish_panel(ax, case, sorted((t, b["err_rot"]) for (c, t), b in dopri.items() if c == case), "rtol = atol")
+    _save(plt, fig, axes, os.path.join(report_dir, "adaptive_tolerance.png"),
+          "Adaptive steps: end error against the tolerance (over the span)", 5, 0.06)
     # work–precision: adaptive (solid) beside the same method at fixed h (dotted) and dopri5
     fig, axes = plt.subplots(2, 2, figsize=(12, 9))
     for ax, case in zip(axes.flat, cases):
@@ -264,22 +273,12 @@ def plot(report_dir, adaptive, fixed, dopri):
                       marker="o", markersize=3, label=TITLES.get(m, m) + ", adaptive")
             f = sorted(fixed.get((case, m), []), key=lambda x: x[1])
             if f:
-                ax.loglog([s * 1e3 for _, s, _ in f], [e for e, _, _ in f], color=col, linestyle=":", linewidth=1,
+                ax.loglog([x[1] * 1e3 for x in f], [x[0] for x in f], color=col, linestyle=":", linewidth=1,
                           label=TITLES.get(m, m) + ", fixed h")
-        d = sorted((seconds(b) * 1e3, b["err_rot"]) for (c, t), b in dopri.items() if c == case)
-        if d:
-            ax.loglog([t for t, _ in d], [e for _, e in d], color="black", linestyle="-.", marker="^", markersize=3,
-                      label="odeint dopri5")
-        ax.set_title(case.upper())
-        ax.set_xlabel("CPU time per run [ms]")
-        ax.set_ylabel("‖Λ − Λref‖ at the end")
-        ax.grid(True, alpha=0.4)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
-    fig.suptitle("Adaptive steps: work–precision beside fixed h and dopri5")
-    fig.tight_layout(rect=(0, 0.08, 1, 0.97))
-    fig.savefig(os.path.join(report_dir, "adaptive_work_precision.png"), dpi=110)
-    plt.close(fig)
+        _finish_panel(ax, case, sorted((seconds(b) * 1e3, b["err_rot"]) for (c, t), b in dopri.items() if c == case),
+                      "CPU time per run [ms]")
+    _save(plt, fig, axes, os.path.join(report_dir, "adaptive_work_precision.png"),
+          "Adaptive steps: work–precision beside fixed h and dopri5", 4, 0.08)
     return ["adaptive_tolerance.png", "adaptive_work_precision.png"]
 
 

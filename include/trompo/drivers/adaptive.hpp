@@ -82,7 +82,7 @@ enum class StepControl {
 /// How tolerance mode estimates the error of a step [A3].
 enum class ErrorEstimate {
   automatic,  ///< defect for schemes of order ≤ 6, doubling above
-  defect,     ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–3 evaluations of Ω̇
+  defect,     ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–2 evaluations of Ω̇
   doubling    ///< Ψ_h against Ψ_{h/2}∘Ψ_{h/2}, advancing with the halves: three steps per attempt
 };
 

@@ -147,7 +147,7 @@ class LieHermite {
     const Scalar h = h_;
     // log of Λ_aᵀΛ_b from the unnormalised product: the log is invariant to |q|
     const Eigen::Quaternion<Scalar> q = a.state.rotation.unit_quaternion().conjugate() * b.state.rotation.unit_quaternion();
-    Vector3 phi = quaternion_log(q);
+    Vector3 phi = SO3<Scalar>::quaternion_log(q);
     // The branch of log nearest the mean rotation h(Ω_a + Ω_b)/2 when the step turns far [D1].
     const Vector3 guess = h * (a.state.omega + b.state.omega) / Scalar(2);
     const Scalar angle = phi.norm();
@@ -213,17 +213,6 @@ class LieHermite {
   Scalar t_end() const { return t1_; }
 
  private:
-  /// log of a (not necessarily unit) quaternion with w ≥ 0 or not: 2 atan2(|v|, w) v/|v| on
-  /// the branch |x| ≤ π for w ≥ 0 (the caller picks the branch, [D1]); |q| cancels.
-  static Vector3 quaternion_log(Eigen::Quaternion<Scalar> q) {
-    using std::atan2;
-    if (q.w() < 0) q.coeffs() = -q.coeffs();
-    const Vector3 v = q.vec();
-    const Scalar s = v.norm(), w = q.w();
-    const Scalar factor = s < Eigen::NumTraits<Scalar>::epsilon() * w ? Scalar(2) / w : Scalar(2) * atan2(s, w) / s;
-    return factor * v;
-  }
-
   /// Hermite basis on [0, 1]: p = p0 b0 + p0' b1 + p0'' b2 + p1'' b3 + p1' b4 + p1 b5
   /// (quintic), or the cubic one with b2 = b3 = 0 [D2].
   void basis(Scalar x, Scalar b[6]) const {

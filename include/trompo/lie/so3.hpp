@@ -166,15 +166,20 @@ class SO3 {
     return SO3(q, Normalize{});
   }
 
-  /// log: the rotation vector x with exp(x̂) = *this, |x| ≤ π. Uses
-  /// θ = 2 atan2(|v|, w) with w ≥ 0, accurate near 0 and near π.
-  Vector3 log() const {
+  /// log: the rotation vector x with exp(x̂) = *this, |x| ≤ π.
+  Vector3 log() const { return quaternion_log(q_); }
+
+  /// The rotation vector of the rotation of a quaternion of any norm and sign (|x| ≤ π):
+  /// θ = 2 atan2(|v|, w) with w ≥ 0, accurate near 0 and near π, and invariant to |q|, so a
+  /// product of unit quaternions needs no normalising first (the dense output's log).
+  static Vector3 quaternion_log(const Quaternion& q) {
     using std::atan2;
-    const Vector3 v = q_.vec();
+    const Scalar sign = q.w() < 0 ? Scalar(-1) : Scalar(1);  // the branch |x| ≤ π
+    const Vector3 v = sign * q.vec();
     const Scalar s = v.norm();
-    const Scalar w = q_.w();  // ≥ 0 by the storage invariant
-    // 2 atan2(s, w) / s, with its series 2/w (1 − s²/(3w²)) for tiny s (w ≈ 1 there).
-    const Scalar factor = s < Eigen::NumTraits<Scalar>::epsilon()
+    const Scalar w = sign * q.w();
+    // 2 atan2(s, w) / s, with its series 2/w (1 − s²/(3w²)) for tiny s/w.
+    const Scalar factor = s < Eigen::NumTraits<Scalar>::epsilon() * w
                               ? Scalar(2) / w * (Scalar(1) - s * s / (3 * w * w))
                               : Scalar(2) * atan2(s, w) / s;
     return factor * v;

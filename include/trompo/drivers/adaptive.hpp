@@ -410,6 +410,7 @@ struct AdaptiveLoop {
       return false;
   }();
   State<Scalar> start_state{};  ///< the state before an in-place attempt
+  Traj doubling_coarse{};       ///< step doubling's Ψ_h, kept across attempts (assign copies the used memory)
   DenseNode<Scalar> node_a{}, node_b{};
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
@@ -591,9 +592,9 @@ struct AdaptiveLoop {
 
   /// Step doubling: `fine` = Ψ_{h/2}²(y), the estimate (Ψ_{h/2}² − Ψ_h)/(2^p − 1).
   Scalar attempt_doubling(Scalar h, Traj& fine, StepStatus& status) {
-    Traj coarse = traj;
+    assign(doubling_coarse, traj);
     assign(fine, traj);
-    StepReport<Scalar> r = stepper.step(coarse, h);
+    StepReport<Scalar> r = stepper.step(doubling_coarse, h);
     sum.iterations += r.iterations;
     ++sum.base_steps;
     if (r.ok()) {
@@ -609,7 +610,7 @@ struct AdaptiveLoop {
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
-    return error_per_unit_step(traj, coarse, fine, h);
+    return error_per_unit_step(traj, doubling_coarse, fine, h);
   }
 
   /// Commits `next` (ending at t_next), reports the step and its events. Returns false when

@@ -6,7 +6,7 @@
 #      one progress line per finished benchmark (count of total, elapsed time, case and method)
 #   4. /usr/bin/python3 -m report (the package scripts/report/): report/report.md, *.csv, *.png
 #      and report/accuracy.md, the docs page generated whole from this run
-# About 12 minutes on 2 cores after the build (2,949 benchmarks: 705 s measured; 868 s from a clean clone). Run it on a quiet machine: the timings are CPU times of a
+# About 12 minutes on 2 cores after the build (2,980 benchmarks: 682 s measured; 807 s from a clean clone). Run it on a quiet machine: the timings are CPU times of a
 # single thread, but a busy machine still inflates them (caches, frequency).
 # Usage: scripts/report.sh [extra trompo-bench flags, e.g. --benchmark_filter=ht1]
 #        TROMPO_UPDATE_DOCS=1 scripts/report.sh   also copies the plots to docs/img/ and

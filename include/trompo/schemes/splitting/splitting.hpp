@@ -206,7 +206,9 @@ struct SplittingScheme {
   /// symmetric about γ) always; π where the scene's flow keeps it (no potential, no applied
   /// torque: the free body, with or without a rotor); H only projected (with a time-dependent
   /// potential, H is the Jacobi integral E_J [G4], [G5]: projected, kept; plain, a bounded
-  /// band). Its memory (the working frame, the first energy) is part of the trajectory.
+  /// band). Its memory: the working frame, a cache of the scene's constants that a step
+  /// from fresh memory rebuilds (a hint), and with the projection the trajectory's first
+  /// energy, which no later state can rebuild (carried).
   static constexpr SchemeTraits traits{
       .order = 2,
       .symmetric = !EnergyProjection,
@@ -217,7 +219,7 @@ struct SplittingScheme {
                          .spatial_momentum = !s.has_potential && !s.has_applied_torque};
           },
       .keeps_jacobi_integral = EnergyProjection,
-      .memory = MemoryUse::carried,
+      .memory = EnergyProjection ? MemoryUse::carried : MemoryUse::hint,
       .writes_memory_on_success = true,
       .refined = true};
   /// Whether the energy projection [S12] runs after each step.

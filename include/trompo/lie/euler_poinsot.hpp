@@ -322,8 +322,6 @@ class EulerPoinsot {
   void advance_general(Quaternion& q, Vector3& Pi, Scalar h) const {
     using std::abs;
     using std::ceil;
-    using std::cos;
-    using std::sin;
     using std::sqrt;
     const Phase ph = phase(Pi);
     if (!(ph.G > Scalar(0))) {
@@ -372,7 +370,8 @@ class EulerPoinsot {
     const Scalar ka = Scalar(0.5) / sqrt(w0 * w1);
     const Vector3 pv = ka * (w0 * v1 - w1 * v0 - v0.cross(v1));
     const Quaternion pa(ka * (w0 * w1 + v0.dot(v1)), pv.x(), pv.y(), pv.z());
-    const Scalar sp = sin(Scalar(0.5) * dpsi), cp = cos(Scalar(0.5) * dpsi);
+    Scalar sp, cp;
+    detail::sin_cos(Scalar(0.5) * dpsi, sp, cp);
     const Quaternion r(cp, sp * n0.x(), sp * n0.y(), sp * n0.z());
     q = q * (r * pa);
   }
@@ -380,15 +379,14 @@ class EulerPoinsot {
   // [S2] the symmetric free flow about axis s: Λ ← Λ exp(t Π̂/J_a) exp(t ν ê_s),
   // Π ← exp(−t ν ê_s) Π, ν = (1/J_s − 1/J_a) Π_s (rotation of Π in increment form).
   void advance_symmetric(Quaternion& q, Vector3& Pi, Scalar t) const {
-    using std::cos;
-    using std::sin;
     const Scalar pn = Pi.norm();
     const Scalar half = Scalar(0.5) * t * Ja_inv_ * pn;
-    const Scalar sh = sin(half), ch = cos(half);
+    Scalar sh, ch, sp, cp;
+    detail::sin_cos(half, sh, ch);
     const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);
     q = q * Quaternion(ch, k * Pi.x(), k * Pi.y(), k * Pi.z());
     const Scalar phi_half = Scalar(0.5) * t * c_s_ * Pi(s_axis_);
-    const Scalar sp = sin(phi_half), cp = cos(phi_half);
+    detail::sin_cos(phi_half, sp, cp);
     Vector3 axis_v = Vector3::Zero();
     axis_v(s_axis_) = sp;
     q = q * Quaternion(cp, axis_v.x(), axis_v.y(), axis_v.z());

@@ -247,15 +247,14 @@ struct SplitState {
 /// The split clock advances here (time is a split variable, [S13]).
 template <class Scalar>
 inline void flow_symmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
-  using std::cos;
-  using std::sin;
   const Scalar pn = x.P.norm();
   const Scalar half = Scalar(0.5) * t * f.Ja_inv * pn;
-  const Scalar sh = sin(half), ch = cos(half);
+  Scalar sh, ch, sp, cp;
+  sin_cos(half, sh, ch);
   const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);  // Π = 0: no rotation
   x.q = x.q * Eigen::Quaternion<Scalar>(ch, k * x.P.x(), k * x.P.y(), k * x.P.z());
   const Scalar phi_half = Scalar(0.5) * t * f.c_s * x.P.z();
-  const Scalar sp = sin(phi_half), cp = cos(phi_half);
+  sin_cos(phi_half, sp, cp);
   multiply_axis<2>(x.q, cp, sp);
   rotate_back_axis<2>(x.P, cp, sp);
   x.t += t;
@@ -264,10 +263,9 @@ inline void flow_symmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>& 
 /// [S3] the exact flow of T_asym = ½ k_b Π_b²: φ = t k_b Π_b, Λ ← Λ exp(φ ê_b), Π ← exp(−φ ê_b)Π.
 template <class Scalar>
 inline void flow_asymmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
-  using std::cos;
-  using std::sin;
   const Scalar phi_half = Scalar(0.5) * t * f.k_b * x.P.x();
-  const Scalar sp = sin(phi_half), cp = cos(phi_half);
+  Scalar sp, cp;
+  sin_cos(phi_half, sp, cp);
   multiply_axis<0>(x.q, cp, sp);
   rotate_back_axis<0>(x.P, cp, sp);
 }
@@ -285,10 +283,9 @@ inline void flow_exact_free(const SplittingFrame<Scalar>& f, SplitState<Scalar>&
 template <class Scalar>
 inline void flow_rotor(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  using std::cos;
-  using std::sin;
   const Scalar phi_half = Scalar(0.5) * t * f.rotor_rate;
-  const Scalar sp = sin(phi_half), cp = cos(phi_half);
+  Scalar sp, cp;
+  sin_cos(phi_half, sp, cp);
   const Vector3& n = f.rotor_axis;
   x.q = x.q * Eigen::Quaternion<Scalar>(cp, sp * n.x(), sp * n.y(), sp * n.z());
   // exp(−φ n̂)Π = Π − sin φ n×Π + (1 − cos φ) n×(n×Π), increment form [S5]

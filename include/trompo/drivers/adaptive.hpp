@@ -16,9 +16,10 @@
 // for the whole variable-step run; no extrapolated or corrected value is ever used (it
 // would break H, μ). Two error estimates (`AdaptiveOptions::estimate`):
 //  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
-//    the integral of the defect u' − f(u) of the step's quintic Lie–Hermite interpolant u,
-//    by a Lobatto rule whose ends are the nodes' rates: 1 new evaluation of Ω̇ at order 2,
-//    2 at orders 4 and 6, plus the end node (Ω̇, Ω̈), which the dense output and events reuse;
+//    the integral of the defect u' − f(u) of the step's Lie–Hermite interpolant u (cubic at
+//    order 2, quintic at orders 4 and 6), by a Lobatto rule whose ends are the nodes' rates:
+//    1 new evaluation of Ω̇ at order 2, 2 at orders 4 and 6, plus the end node (Ω̇, and Ω̈
+//    for the quintic), which the dense output and events reuse;
 //  - doubling (orders above 6): Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y), the run advancing with the
 //    halves, e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1); three steps per attempt.
 // The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
@@ -27,8 +28,8 @@
 // elementary controller; a Newton failure (any StepStatus but ok) is a rejection that
 // quarters h and caps the next growth at 1.5×; the failure contract holds: a failed step
 // leaves the trajectory untouched, and a rejected one is undone (its state put back; a
-// memory that is only a hint, such as Simo-κ's history, keeps that step as a hint, any
-// other memory is stepped in a copy committed on acceptance only).
+// memory that is only a hint, such as Simo-κ's history or the splitting's frame, keeps
+// that step as a hint, any other memory is stepped in a copy committed on acceptance only).
 // A composition (ComposedStepper) is stepped whole: h changes only between whole
 // composed steps. The processed composition is not accepted (a compile-time error): its
 // processor P_h is tied to h, so every change of h would cost P_{h'}∘P_h⁻¹ (24 base steps,
@@ -563,8 +564,11 @@ struct AdaptiveLoop {
   /// return value is the error per unit step; on failure the status is set, traj untouched.
   Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
     if (!use_defect) return attempt_doubling(h, next, status);
+    // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
+    // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
+    const bool quintic_estimate = lobatto_points > 3;
     if (!have_node_a) {
-      node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj));
+      node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj), quintic_estimate);
       have_node_a = true;
     }
     // In place (a hint memory): the state is kept, and put back by undo() on rejection.
@@ -577,8 +581,9 @@ struct AdaptiveLoop {
     status = r.status;
     if (!r.ok()) return Scalar(0);
     end.time = t_next;
-    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end));
-    attempt_segment = LieHermite<Scalar>(node_a, node_b, true);
+    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end), quintic_estimate);
+    if (quintic_estimate) add_second_rate(stepper.scene(), node_a);  // a cubic attempt's start
+    attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
     Vector3 e_rot, e_om;
     defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, lobatto_points, e_rot, e_om);
     return error_norm(e_rot, e_om, node_a.state.omega.norm(), end.omega.norm(), h);
@@ -630,9 +635,15 @@ struct AdaptiveLoop {
     }
     if (!have_node_a) node_a = dense_node(stepper.scene(), before);
     if (!node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(now));
+    if (opt.quintic) {  // the estimate's nodes of an order-2 run lack Ω̈
+      add_second_rate(stepper.scene(), node_a);
+      add_second_rate(stepper.scene(), node_b);
+    }
     const DenseNode<Scalar>& a = node_a;
     const DenseNode<Scalar>& b = node_b;
-    const LieHermite<Scalar> seg = node_b_ready && opt.quintic ? attempt_segment : LieHermite<Scalar>(a, b, opt.quintic);
+    const LieHermite<Scalar> seg = node_b_ready && attempt_segment.quintic() == opt.quintic
+                                       ? attempt_segment
+                                       : LieHermite<Scalar>(a, b, opt.quintic);
     if (event_list && !event_list->empty()) {
       locate(seg, before.time, t_next);
       for (const Occurrence<Scalar>& o : found) {

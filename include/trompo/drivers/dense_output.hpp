@@ -37,7 +37,9 @@ struct DenseNode {
   /// The state at this node.
   State<Scalar> state;
   Vector3 omega_dot = Vector3::Zero();   ///< Ω̇ = J⁻¹(Π × Ω + τ)       [D3]
-  Vector3 omega_ddot = Vector3::Zero();  ///< Ω̈ = J⁻¹(JΩ̇ × Ω + Π × Ω̇ + τ̇)
+  Vector3 omega_ddot = Vector3::Zero();  ///< Ω̈ = J⁻¹(JΩ̇ × Ω + Π × Ω̇ + τ̇), when `second`
+  /// Whether omega_ddot holds Ω̈ (the quintic needs it, the cubic does not).
+  bool second = false;
 };
 
 /// Ω̇ of the scene at (Λ, Ω, t), Λ as a matrix: the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r.
@@ -61,24 +63,31 @@ Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene, const
     return omega_rate(scene, Eigen::Matrix<typename Scene::Scalar, 3, 3>::Identity(), s.omega, s.time);
 }
 
-/// The node of a state: Ω̇ from the Euler equation, Ω̈ from its time derivative, whose
-/// torque rate τ̇ is a central difference along the flow (step δ ~ ε^{1/3}/rate, so τ̇ is
-/// accurate to ~1e-11 relative; no torque: exact). The attitudes Λ(I ± δΩ̂) of the
-/// difference are first-order in δ: they differ from Λexp(±δΩ̂) by the same Λδ²Ω̂²/2,
-/// which the central difference cancels, so no exponential is needed.
+/// Fills Ω̈ of a node that has Ω̇ (node.second afterwards): the time derivative of the
+/// Euler equation. Its torque rate τ̇ (of the torque in the body frame, which turns with
+/// Ω): for time-independent potentials alone, exact from the torque's tangent,
+/// τ̇ = K Ω − Ω × τ with K = ∂τ_n(Λ exp(ŵ))/∂w at w = 0 the tangent of the torque held in
+/// the node's frame (the implicit schemes' [T3]); for any other torque a central difference along the flow
+/// (step δ ~ ε^{1/3}/rate, so τ̇ is accurate to ~1e-11 relative), whose attitudes Λ(I ± δΩ̂)
+/// are first-order in δ: they differ from Λexp(±δΩ̂) by the same Λδ²Ω̂²/2, which the
+/// central difference cancels, so no exponential is needed. No torque: exact.
 template <class Scene>
-DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typename Scene::Scalar>& s) {
+void add_second_rate(const Scene& scene, DenseNode<typename Scene::Scalar>& n) {
   using Scalar = typename Scene::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-  DenseNode<Scalar> n;
-  n.state = s;
-  const Matrix3 R = (Scene::has_potential || Scene::has_applied_torque) ? s.rotation.matrix() : Matrix3::Identity();
-  n.omega_dot = omega_rate(scene, R, s.omega, s.time);
+  if (n.second) return;
+  const State<Scalar>& s = n.state;
   const auto& J = scene.body().inertia();
   Vector3 rhs = (J * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
-  if constexpr (Scene::has_potential || Scene::has_applied_torque) {
+  if constexpr (Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential) {
+    // τ_body = Rᵀτ_n(R) at R = exp(tΩ̂): τ̇_body = K Ω − Ω × τ (τ_n's rate, the frame turning)
+    const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
+    rhs += scene.conservative_torque_rate(c, s.omega) -
+           s.omega.cross(scene.conservative_torque(c, Matrix3::Identity()));
+  } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
     using std::sqrt;
+    const Matrix3 R = s.rotation.matrix();
     const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
     const Scalar delta = Scalar(6e-6) / rate;
     const Matrix3 dR = delta * (R * SO3<Scalar>::hat(s.omega));
@@ -89,6 +98,18 @@ DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typ
            (Scalar(2) * delta);
   }
   n.omega_ddot = scene.body().inertia_inverse() * rhs;
+  n.second = true;
+}
+
+/// The node of a state: Ω̇ from the Euler equation and, with `second` (the quintic's
+/// need), Ω̈ (add_second_rate). The cubic needs Ω̇ only.
+template <class Scene>
+DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typename Scene::Scalar>& s,
+                                             bool second = true) {
+  DenseNode<typename Scene::Scalar> n;
+  n.state = s;
+  n.omega_dot = omega_rate(scene, s);
+  if (second) add_second_rate(scene, n);
   return n;
 }
 
@@ -141,7 +162,8 @@ class LieHermite {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
 
   LieHermite() = default;
-  /// The step from node a to node b (h = t_b − t_a ≠ 0, either sign); `quintic` false: cubic.
+  /// The step from node a to node b (h = t_b − t_a ≠ 0, either sign); `quintic` false: cubic
+  /// (the quintic needs nodes with Ω̈, node.second).
   LieHermite(const DenseNode<Scalar>& a, const DenseNode<Scalar>& b, bool quintic = true)
       : t0_(a.state.time), h_(b.state.time - a.state.time), rotation0_(a.state.rotation), quintic_(quintic) {
     const Scalar h = h_;
@@ -153,21 +175,24 @@ class LieHermite {
     const Scalar angle = phi.norm();
     if (angle > Scalar(0)) {
       const Vector3 other = phi - (Scalar(2) * Scalar(EIGEN_PI) / angle) * phi;
-      if ((other - guess).norm() < (phi - guess).norm()) phi = other;
+      if ((other - guess).squaredNorm() < (phi - guess).squaredNorm()) phi = other;
     }
     xi1_ = phi;
     d0_ = h * a.state.omega;                                                   // ξ'(0) = hΩ_a
     const Scalar c = detail::inverse_tangent_coefficient(phi.norm());
     d1_ = h * detail::apply_inverse_tangent(phi, c, b.state.omega);               // ξ'(1) = h T(φ)⁻¹Ω_b
-    s0_ = h * h * a.omega_dot;                                                    // ξ''(0) = h²Ω̇_a
-    s1_ = h * detail::inverse_tangent_derivative(phi, d1_, b.state.omega, c) +   // ξ''(1)
-          h * h * detail::apply_inverse_tangent(phi, c, b.omega_dot);
     w0_ = a.state.omega;
     w1_ = b.state.omega;
     wd0_ = h * a.omega_dot;
     wd1_ = h * b.omega_dot;
-    wdd0_ = h * h * a.omega_ddot;
-    wdd1_ = h * h * b.omega_ddot;
+    if (quintic) {  // the second derivatives (the cubic has none: b2 = b3 = 0)
+      eigen_assert(a.second && b.second && "LieHermite: the quintic needs nodes with omega_ddot (dense_node)");
+      s0_ = h * h * a.omega_dot;                                                    // ξ''(0) = h²Ω̇_a
+      s1_ = h * detail::inverse_tangent_derivative(phi, d1_, b.state.omega, c) +   // ξ''(1)
+            h * h * detail::apply_inverse_tangent(phi, c, b.omega_dot);
+      wdd0_ = h * h * a.omega_ddot;
+      wdd1_ = h * h * b.omega_ddot;
+    }
     t1_ = b.state.time;
     rotation1_ = b.state.rotation;
   }
@@ -194,7 +219,12 @@ class LieHermite {
   /// ξ(θ) and Ω(θ) at the fraction θ = (t − t_n)/h of the step: Λ(θ) = Λ_n exp(ξ(θ)^) [D1].
   void algebra(Scalar theta, Vector3& xi, Vector3& omega) const {
     Scalar b[6];
-    basis(theta, b);
+    basis(theta, quintic_, b);
+    algebra(b, xi, omega);
+  }
+  /// algebra() with the Hermite basis at θ given (basis(θ, quintic(), b)): fixed nodes
+  /// (the defect's Lobatto points) evaluate it once.
+  void algebra(const Scalar (&b)[6], Vector3& xi, Vector3& omega) const {
     xi = b[1] * d0_ + b[2] * s0_ + b[3] * s1_ + b[4] * d1_ + b[5] * xi1_;
     omega = b[0] * w0_ + b[1] * wd0_ + b[2] * wdd0_ + b[3] * wdd1_ + b[4] * wd1_ + b[5] * w1_;
   }
@@ -204,6 +234,8 @@ class LieHermite {
   Vector3 phi_rate() const { return d1_ / h_; }
   /// The step h = t_{n+1} − t_n.
   Scalar step() const { return h_; }
+  /// Whether the interpolant is the quintic (else the cubic).
+  bool quintic() const { return quintic_; }
   /// The attitude at the step's start.
   const SO3<Scalar>& rotation_start() const { return rotation0_; }
 
@@ -212,12 +244,11 @@ class LieHermite {
   /// The time of the interval's end.
   Scalar t_end() const { return t1_; }
 
- private:
   /// Hermite basis on [0, 1]: p = p0 b0 + p0' b1 + p0'' b2 + p1'' b3 + p1' b4 + p1 b5
   /// (quintic), or the cubic one with b2 = b3 = 0 [D2].
-  void basis(Scalar x, Scalar b[6]) const {
+  static void basis(Scalar x, bool quintic, Scalar (&b)[6]) {
     const Scalar x2 = x * x, x3 = x2 * x;
-    if (quintic_) {
+    if (quintic) {
       const Scalar x4 = x3 * x, x5 = x4 * x;
       b[0] = 1 - 10 * x3 + 15 * x4 - 6 * x5;
       b[1] = x - 6 * x3 + 8 * x4 - 3 * x5;
@@ -234,6 +265,7 @@ class LieHermite {
     }
   }
 
+ private:
   Scalar t0_ = Scalar(0), t1_ = Scalar(0), h_ = Scalar(1);
   SO3<Scalar> rotation0_, rotation1_;
   bool quintic_ = true;
@@ -242,6 +274,26 @@ class LieHermite {
   Vector3 w0_ = Vector3::Zero(), w1_ = Vector3::Zero(), wd0_ = Vector3::Zero(), wd1_ = Vector3::Zero(),
           wdd0_ = Vector3::Zero(), wdd1_ = Vector3::Zero();
 };
+
+namespace detail {
+/// Lobatto rules on [0, 1] with `points` = 3 (Simpson), 4 or 5 nodes: the interior nodes θ_i
+/// (the rule is symmetric), their weights, the weight of each end, and their number.
+template <class Scalar>
+void lobatto_interior(int points, Scalar (&nodes)[3], Scalar (&weights)[3], Scalar& w_end, int& n_inner) {
+  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
+  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
+  if (points <= 3) {  // Simpson
+    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
+  } else if (points == 4) {
+    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
+    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
+  } else {
+    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
+    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
+    w_end = Scalar(1) / Scalar(20), n_inner = 3;
+  }
+}
+}  // namespace detail
 
 /// The local error of the step a → b from the defect of its interpolant [D4]. With z the
 /// exact solution from the start node and u the interpolant, d = u − z obeys
@@ -260,33 +312,52 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
                      Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_omega) {
   using Scalar = typename Scene::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  // Lobatto rules on [0, 1]: interior nodes θ_i (the rule is symmetric) and weights.
-  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
-  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
   Scalar nodes[3], weights[3], w_end;
   int n_inner;
-  if (points <= 3) {  // Simpson
-    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
-  } else if (points == 4) {
-    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
-    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
-  } else {
-    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
-    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
-    w_end = Scalar(1) / Scalar(20), n_inner = 3;
-  }
+  detail::lobatto_interior(points, nodes, weights, w_end, n_inner);
   const Scalar h = seg.step();
+  // the interpolant's basis at the interior nodes, once per rule and degree
+  using Basis = std::array<Scalar[6], 3>;
+  const auto bases_of = [](int pts, bool quintic) {
+    Basis basis_at{};
+    Scalar x[3], w[3], we;
+    int n;
+    detail::lobatto_interior(pts, x, w, we, n);
+    for (int i = 0; i < n; ++i) LieHermite<Scalar>::basis(x[i], quintic, basis_at[std::size_t(i)]);
+    return basis_at;
+  };
+  static const std::array<Basis, 6> bases = {bases_of(3, false), bases_of(4, false), bases_of(5, false),
+                                             bases_of(3, true),  bases_of(4, true),  bases_of(5, true)};
+  const Basis& basis = bases[std::size_t((seg.quintic() ? 3 : 0) + std::clamp(points, 3, 5) - 3)];
   // the ends: T(0)⁻¹Ω_n = Ω_n, T(φ)⁻¹Ω_{n+1}; Ω̇ of the nodes
   Vector3 rate_xi = w_end * (a.state.omega + seg.phi_rate());
   Vector3 rate_omega = w_end * (a.omega_dot + b.omega_dot);
+  // Time-independent potentials alone: their caches at Λ_n serve every node, whose torque
+  // at Λ_n exp(ξ̂) comes from ξ and the coefficients of exp (eq. (8)) without forming Λ_i.
+  constexpr bool potential_only =
+      Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential;
+  [[maybe_unused]] typename Scene::Caches caches{};
+  if constexpr (potential_only) caches = scene.caches(seg.rotation_start().matrix(), seg.t_start());
+  const auto& J_inv = scene.body().inertia_inverse();
   for (int i = 0; i < n_inner; ++i) {
     Vector3 xi, omega;
-    seg.algebra(nodes[i], xi, omega);
-    rate_xi += weights[i] * detail::apply_inverse_tangent(xi, detail::inverse_tangent_coefficient(xi.norm()), omega);
-    if constexpr (Scene::has_potential || Scene::has_applied_torque)
+    seg.algebra(basis[std::size_t(i)], xi, omega);
+    const Scalar theta = xi.norm();
+    rate_xi += weights[i] * detail::apply_inverse_tangent(xi, detail::inverse_tangent_coefficient(theta), omega);
+    if constexpr (potential_only) {
+      // the torque at Λ_n R, R = exp(ξ̂) = I + a ξ̂ + b ξ̂², in frame n, then in the node's
+      // body frame: Rᵀτ = τ − a ξ × τ + b ξ × (ξ × τ)
+      const detail::HalfAngle<Scalar> c = detail::half_angle(theta);
+      const Scalar ca = c.sinc(), cb = c.one_minus_cos_over_sq();
+      const Vector3 tau_n = scene.conservative_torque_rodrigues(caches, xi, ca, cb);
+      const Vector3 xt = xi.cross(tau_n);
+      const Vector3 tau = tau_n - ca * xt + cb * xi.cross(xt);
+      rate_omega += weights[i] * (J_inv * (scene.momentum(omega).cross(omega) + tau));  // [D3]
+    } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
       rate_omega += weights[i] * omega_rate(scene, seg.rotation_at(xi).matrix(), omega, seg.t_start() + nodes[i] * h);
-    else
+    } else {
       rate_omega += weights[i] * omega_rate(scene, Eigen::Matrix<Scalar, 3, 3>::Identity(), omega, seg.t_start());
+    }
   }
   e_rot = seg.phi() - h * rate_xi;
   e_omega = b.state.omega - a.state.omega - h * rate_omega;

@@ -150,6 +150,23 @@ class Scene {
     return tau;
   }
 
+  /// Σ of the rates of the conservative torques held in frame n (conservative_torque(c, R))
+  /// along R = exp(tΩ̂) at t = 0: K Ω with K = ∂τ/∂w at R = I (an effect's
+  /// torque_rate(c, Ω) where it has one, else its torque_jacobian(c, I)·Ω). The body-frame
+  /// torque's rate is this minus Ω × τ (the dense output's Ω̈, drivers/dense_output.hpp).
+  Vector3 conservative_torque_rate(const Caches& c, const Vector3& omega) const {
+    Vector3 rate = Vector3::Zero();
+    for_each([&](const auto& e, const auto& ce) {
+      if constexpr (is_kind<std::decay_t<decltype(e)>, potential_kind>) {
+        if constexpr (requires { e.torque_rate(ce, omega); })
+          rate += e.torque_rate(ce, omega);
+        else
+          rate += e.torque_jacobian(ce, Matrix3::Identity()) * omega;
+      }
+    }, c);
+    return rate;
+  }
+
   /// Σ conservative torques at Λ_n R for R = I + a x̂ + b x̂² (8), given by x and its
   /// coefficients, in frame n. Effects with torque_rodrigues (gravity) rotate their body
   /// vector without forming R; for the others R is formed once. Same value as

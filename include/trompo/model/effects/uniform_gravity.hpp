@@ -52,6 +52,8 @@ class UniformGravity {
   Scalar potential(const Cache& c, const Matrix3& R) const { return -c.b.dot(R * E_); }
   /// (R E) × b: the torque E × Λᵀ𝐠 at Λ_n R, expressed in frame n ([T1]).
   Vector3 torque(const Cache& c, const Matrix3& R) const { return (R * E_).cross(c.b); }
+  /// d/dt torque(c, exp(tΩ̂)) at t = 0: (Ω × E) × b, i.e. torque_jacobian(c, I)·Ω.
+  Vector3 torque_rate(const Cache& c, const Vector3& omega) const { return omega.cross(E_).cross(c.b); }
   /// torque(c, R) for R = I + a x̂ + b x̂² (8), without forming R:
   /// R E = E + a x×E + b x×(x×E). The Simo residual's torque at exp(Θ̂/2) (simo.hpp).
   Vector3 torque_rodrigues(const Cache& c, const Vector3& x, Scalar a, Scalar b) const {

@@ -4,7 +4,8 @@
 //                                              to the case's end time, on HT0, HT1, HT2, FB1
 //   step-adaptive/ht1/<method>                 one accepted adaptive step at HT1's h_step
 //                                              (h held there by max_step): the estimator's
-//                                              cost beside step/ht1/<method> of the core run
+//                                              cost against the same run at fixed h, timed
+//                                              in alternation (counter `ratio`)
 //
 // Methods: simo-kappa (order 2), simo-kappa-o4s (Suzuki's five steps), simo-kappa-o6
 // (Kahan–Li's nine), splitting-strang, splitting-suzuki-5, splitting-kahan-li-9. The sweeps
@@ -14,6 +15,7 @@
 // reference, max_dH = max |ΔH/H0|, steps = accepted steps, h = mean step) plus accepted,
 // rejected, and newton per accepted step (all attempts' iterations). scripts/report/adaptive.py
 // makes the figures and tables of docs/accuracy.md's "Adaptive steps" from the JSON.
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -89,12 +91,18 @@ void register_tolerance_sweep(const Problem<SceneT>& p, const std::string& metho
 /// step-adaptive/<case>/<method>: the time of one accepted adaptive step at h = h_step
 /// (max_step = first_step = h_step and a tolerance loose enough that no step is rejected):
 /// the step, its error estimate (the defect [D4] up to order 6), its norm and the controller
-/// [A1]–[A3]. ns_per_step is the run's time over its accepted steps.
+/// [A1]–[A3]. Each iteration runs the same 1000 steps twice, at fixed h (integrate(), as
+/// step/<case>/<method>) and adaptive, one after the other, so that the ratio of the two
+/// sees the same machine load (on a shared machine, the load drifts between two benchmarks
+/// by more than the overhead measured). The benchmark's time is the adaptive runs' (manual
+/// time); s_per_step: seconds per accepted adaptive step, plain_s_per_step: per fixed-h step,
+/// ratio: their quotient.
 template <class SceneT, class MakeStepper>
 void register_adaptive_step(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
                             MakeStepper make) {
   const std::string name = "step-adaptive/" + std::string(p.c.name) + "/" + method;
   benchmark::RegisterBenchmark(name.c_str(), [&p, make, method, scheme](benchmark::State& st) {
+    using clock = std::chrono::steady_clock;
     const auto stepper = make(p.c.scene);
     AdaptiveOptions<double> opt;
     opt.rtol = 1e-2;
@@ -102,27 +110,40 @@ void register_adaptive_step(const Problem<SceneT>& p, const std::string& method,
     opt.tolerance_over_span = false;  // per unit time: the same test whatever the run's length
     opt.first_step = p.h_step;
     opt.max_step = p.h_step;
-    const double t_end = p.c.initial.time + 1000 * p.h_step;
+    constexpr int n = 1000;
+    const double t_end = p.c.initial.time + n * p.h_step;
     cases::Case<SceneT> c = p.c;
     c.t_end = t_end;
     const AdaptiveResult r = run_adaptive<false>(stepper, c, opt);
-    if (!r.run.ok || r.summary.rejected != 0) {
-      st.SkipWithError("the adaptive run at fixed h failed or rejected a step");
+    if (!r.run.ok || r.summary.rejected != 0 || r.summary.accepted != n) {
+      st.SkipWithError("the adaptive run at fixed h failed, rejected a step or took another number of steps");
       return;
     }
-    const double steps = double(r.summary.accepted);
+    double plain_seconds = 0, adaptive_seconds = 0;
     for (auto _ : st) {
+      const auto t0 = clock::now();
+      auto s = start_of(stepper, p.c.initial);
+      const IntegrationSummary<double> fixed = integrate(stepper, s, t_end, p.h_step, NoObserver{}, no_recovery);
+      benchmark::DoNotOptimize(s);
+      benchmark::DoNotOptimize(fixed);
+      const auto t1 = clock::now();
       AdaptiveResult timed = run_adaptive<false>(stepper, c, opt);
       benchmark::DoNotOptimize(timed.run.end);
+      const auto t2 = clock::now();
+      plain_seconds += std::chrono::duration<double>(t1 - t0).count();
+      const double a = std::chrono::duration<double>(t2 - t1).count();
+      adaptive_seconds += a;
+      st.SetIterationTime(a);
     }
-    st.counters["accepted"] = steps;
-    st.counters["newton"] = double(r.summary.iterations) / steps;
+    const double runs = double(st.iterations());
+    st.counters["accepted"] = double(n);
+    st.counters["newton"] = double(r.summary.iterations) / double(n);
     st.counters["h"] = p.h_step;
-    // seconds per accepted step (Google Benchmark prints it scaled, e.g. 1.2u)
-    st.counters["s_per_step"] = benchmark::Counter(steps, benchmark::Counter::kIsIterationInvariantRate |
-                                                              benchmark::Counter::kInvert);
+    st.counters["s_per_step"] = adaptive_seconds / (runs * n);
+    st.counters["plain_s_per_step"] = plain_seconds / (runs * n);
+    st.counters["ratio"] = adaptive_seconds / plain_seconds;
     st.SetLabel(label_of(p.c.name, "adaptive-" + method, scheme, stepper.order(), p.h_step, 1e-2, stages_of(stepper)));
-  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kMicrosecond);
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->UseManualTime()->Unit(benchmark::kMicrosecond);
 }
 
 /// f(method, scheme, order, make) for every configuration measured.

@@ -64,13 +64,14 @@ Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene, const
 }
 
 /// Fills Ω̈ of a node that has Ω̇ (node.second afterwards): the time derivative of the
-/// Euler equation. Its torque rate τ̇ (of the torque in the body frame, which turns with
-/// Ω): for time-independent potentials alone, exact from the torque's tangent,
-/// τ̇ = K Ω − Ω × τ with K = ∂τ_n(Λ exp(ŵ))/∂w at w = 0 the tangent of the torque held in
-/// the node's frame (the implicit schemes' [T3]); for any other torque a central difference along the flow
-/// (step δ ~ ε^{1/3}/rate, so τ̇ is accurate to ~1e-11 relative), whose attitudes Λ(I ± δΩ̂)
-/// are first-order in δ: they differ from Λexp(±δΩ̂) by the same Λδ²Ω̂²/2, which the
-/// central difference cancels, so no exponential is needed. No torque: exact.
+/// Euler equation [D3]. Its torque rate τ̇ (of the torque in the body frame, which turns
+/// with Ω): for time-independent potentials alone, exact from the torque's tangent,
+/// τ̇ = K Ω − Ω × τ, K = ∂τ_n(Λ exp(ŵ))/∂w at w = 0 the tangent of the torque held in the
+/// node's frame (the implicit schemes' [T3]); for any other torque a central difference
+/// along the flow (step δ ~ ε^{1/3}/rate, so τ̇ is accurate to ~1e-11 relative), whose
+/// attitudes Λ(I ± δΩ̂) are first-order in δ: they differ from Λexp(±δΩ̂) by the same
+/// Λδ²Ω̂²/2, which the central difference cancels, so no exponential is needed. No torque:
+/// exact.
 template <class Scene>
 void add_second_rate(const Scene& scene, DenseNode<typename Scene::Scalar>& n) {
   using Scalar = typename Scene::Scalar;
@@ -219,12 +220,7 @@ class LieHermite {
   /// ξ(θ) and Ω(θ) at the fraction θ = (t − t_n)/h of the step: Λ(θ) = Λ_n exp(ξ(θ)^) [D1].
   void algebra(Scalar theta, Vector3& xi, Vector3& omega) const {
     Scalar b[6];
-    basis(theta, quintic_, b);
-    algebra(b, xi, omega);
-  }
-  /// algebra() with the Hermite basis at θ given (basis(θ, quintic(), b)): fixed nodes
-  /// (the defect's Lobatto points) evaluate it once.
-  void algebra(const Scalar (&b)[6], Vector3& xi, Vector3& omega) const {
+    basis(theta, b);
     xi = b[1] * d0_ + b[2] * s0_ + b[3] * s1_ + b[4] * d1_ + b[5] * xi1_;
     omega = b[0] * w0_ + b[1] * wd0_ + b[2] * wdd0_ + b[3] * wdd1_ + b[4] * wd1_ + b[5] * w1_;
   }
@@ -244,11 +240,12 @@ class LieHermite {
   /// The time of the interval's end.
   Scalar t_end() const { return t1_; }
 
+ private:
   /// Hermite basis on [0, 1]: p = p0 b0 + p0' b1 + p0'' b2 + p1'' b3 + p1' b4 + p1 b5
   /// (quintic), or the cubic one with b2 = b3 = 0 [D2].
-  static void basis(Scalar x, bool quintic, Scalar (&b)[6]) {
+  void basis(Scalar x, Scalar b[6]) const {
     const Scalar x2 = x * x, x3 = x2 * x;
-    if (quintic) {
+    if (quintic_) {
       const Scalar x4 = x3 * x, x5 = x4 * x;
       b[0] = 1 - 10 * x3 + 15 * x4 - 6 * x5;
       b[1] = x - 6 * x3 + 8 * x4 - 3 * x5;
@@ -265,7 +262,6 @@ class LieHermite {
     }
   }
 
- private:
   Scalar t0_ = Scalar(0), t1_ = Scalar(0), h_ = Scalar(1);
   SO3<Scalar> rotation0_, rotation1_;
   bool quintic_ = true;
@@ -274,26 +270,6 @@ class LieHermite {
   Vector3 w0_ = Vector3::Zero(), w1_ = Vector3::Zero(), wd0_ = Vector3::Zero(), wd1_ = Vector3::Zero(),
           wdd0_ = Vector3::Zero(), wdd1_ = Vector3::Zero();
 };
-
-namespace detail {
-/// Lobatto rules on [0, 1] with `points` = 3 (Simpson), 4 or 5 nodes: the interior nodes θ_i
-/// (the rule is symmetric), their weights, the weight of each end, and their number.
-template <class Scalar>
-void lobatto_interior(int points, Scalar (&nodes)[3], Scalar (&weights)[3], Scalar& w_end, int& n_inner) {
-  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
-  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
-  if (points <= 3) {  // Simpson
-    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
-  } else if (points == 4) {
-    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
-    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
-  } else {
-    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
-    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
-    w_end = Scalar(1) / Scalar(20), n_inner = 3;
-  }
-}
-}  // namespace detail
 
 /// The local error of the step a → b from the defect of its interpolant [D4]. With z the
 /// exact solution from the start node and u the interpolant, d = u − z obeys
@@ -312,23 +288,22 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
                      Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_omega) {
   using Scalar = typename Scene::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  // Lobatto rules on [0, 1]: interior nodes θ_i (the rule is symmetric) and weights.
+  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
+  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
   Scalar nodes[3], weights[3], w_end;
   int n_inner;
-  detail::lobatto_interior(points, nodes, weights, w_end, n_inner);
+  if (points <= 3) {  // Simpson
+    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
+  } else if (points == 4) {
+    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
+    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
+  } else {
+    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
+    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
+    w_end = Scalar(1) / Scalar(20), n_inner = 3;
+  }
   const Scalar h = seg.step();
-  // the interpolant's basis at the interior nodes, once per rule and degree
-  using Basis = std::array<Scalar[6], 3>;
-  const auto bases_of = [](int pts, bool quintic) {
-    Basis basis_at{};
-    Scalar x[3], w[3], we;
-    int n;
-    detail::lobatto_interior(pts, x, w, we, n);
-    for (int i = 0; i < n; ++i) LieHermite<Scalar>::basis(x[i], quintic, basis_at[std::size_t(i)]);
-    return basis_at;
-  };
-  static const std::array<Basis, 6> bases = {bases_of(3, false), bases_of(4, false), bases_of(5, false),
-                                             bases_of(3, true),  bases_of(4, true),  bases_of(5, true)};
-  const Basis& basis = bases[std::size_t((seg.quintic() ? 3 : 0) + std::clamp(points, 3, 5) - 3)];
   // the ends: T(0)⁻¹Ω_n = Ω_n, T(φ)⁻¹Ω_{n+1}; Ω̇ of the nodes
   Vector3 rate_xi = w_end * (a.state.omega + seg.phi_rate());
   Vector3 rate_omega = w_end * (a.omega_dot + b.omega_dot);
@@ -341,7 +316,7 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
   const auto& J_inv = scene.body().inertia_inverse();
   for (int i = 0; i < n_inner; ++i) {
     Vector3 xi, omega;
-    seg.algebra(basis[std::size_t(i)], xi, omega);
+    seg.algebra(nodes[i], xi, omega);
     const Scalar theta = xi.norm();
     rate_xi += weights[i] * detail::apply_inverse_tangent(xi, detail::inverse_tangent_coefficient(theta), omega);
     if constexpr (potential_only) {

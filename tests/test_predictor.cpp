@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "support/same_bits.hpp"
 #include "support/trompo_test.hpp"
@@ -224,12 +225,20 @@ TEST_CASE("history predictor: H and mu on an anisotropic top, along a trajectory
   // The top on which a careless acceptance drifted H (trompo_test::anisotropic_top).
   const auto top = trompo_test::anisotropic_top();
   const int n = 20000;
+  // Collocation's α(Θ) jumps where B′ of [T2] changes sign (simo_step.hpp,
+  // collocation_alpha), and a step whose root lies on the jump cannot converge: a Newton
+  // 2-cycle, measured here once in 2e4 steps at h = 0.01 after a round-off change (step 8453,
+  // residual 6e-5 relative, both halves converging in 2 iterations). Such a step is retaken
+  // as two halves, as integrate() does, and counted; Simo-κ and GB have no such jump.
   const auto check_run = [&](auto scheme, double h) {
     using Scheme = decltype(scheme);
+    constexpr bool jumps = std::is_same_v<Scheme, SimoCollocation>;
     const Stepper<Scheme, HeavyTop<double>> stepper(scheme, top.scene);
-    const auto st = trompo_test::run(stepper, stepper.start(top.initial), h, n);  // the history along the run
-    INFO(Scheme::name << " h = " << h << ": max dH/H " << st.max_dH << ", max dmu/mu " << st.max_dmu);
+    const auto st = trompo_test::run(stepper, stepper.start(top.initial), h, n, jumps);  // the history along the run
+    INFO(Scheme::name << " h = " << h << ": max dH/H " << st.max_dH << ", max dmu/mu " << st.max_dmu
+                      << ", steps retaken as halves " << st.recovered);
     REQUIRE(st.failures == 0);
+    CHECK(st.recovered <= (jumps ? 2 : 0));  // the documented rate: ~1 step in 10⁴
     CHECK(st.max_dH < 3 * std::sqrt(double(n)) * 2.2e-16);
     CHECK(st.max_dmu < 3 * std::sqrt(double(n)) * 2.2e-16);
   };

@@ -86,14 +86,18 @@ struct RunStats {
   long iterations = 0;      ///< total Newton iterations
   int max_iterations = 0;   ///< most Newton iterations in one step
   long failures = 0;        ///< steps with a status other than ok (the run stops there)
+  long recovered = 0;       ///< failed steps retaken as two halves (run(..., recover = true))
   trompo::StepStatus first_failure = trompo::StepStatus::ok;
   double mean_iterations() const { return steps ? static_cast<double>(iterations) / static_cast<double>(steps) : 0.0; }
 };
 
 /// n steps of h from s0 with `stepper`, recording the invariants after every step. `s` is a
 /// State, or a Trajectory (stepper.start(s0)) to carry a scheme's memory from step to step.
+/// With `recover`, a failed step is retaken once as two steps of h/2 (integrate()'s first
+/// halving) and counted in `recovered`; only a failed half ends the run as a failure.
 template <class Stepper, class StateT = trompo::State<typename Stepper::Scalar>>
-RunStats<typename Stepper::Scalar> run(const Stepper& stepper, StateT s, typename Stepper::Scalar h, long n) {
+RunStats<typename Stepper::Scalar> run(const Stepper& stepper, StateT s, typename Stepper::Scalar h, long n,
+                                       bool recover = false) {
   using Scalar = typename Stepper::Scalar;
   using std::abs;
   const auto& scene = stepper.scene();
@@ -102,7 +106,13 @@ RunStats<typename Stepper::Scalar> run(const Stepper& stepper, StateT s, typenam
   const Scalar mu0 = scene.momentum_map(s);
   const auto pi0 = scene.spatial_momentum(s);
   for (long k = 0; k < n; ++k) {
-    const trompo::StepReport<Scalar> rep = stepper.step(s, h);
+    trompo::StepReport<Scalar> rep = stepper.step(s, h);
+    if (!rep.ok() && recover) {
+      st.first_failure = rep.status;
+      rep = stepper.step(s, h / 2);
+      if (rep.ok()) rep = stepper.step(s, h / 2);
+      if (rep.ok()) ++st.recovered;
+    }
     if (!rep.ok()) {
       ++st.failures;
       st.first_failure = rep.status;

@@ -19,12 +19,18 @@
 namespace trompo {
 
 namespace detail {
-/// One Newton step for 1/|q| given n2 = |q|² = 1 + δ: q ← q (3 − n2)/2, which leaves
+/// One Newton step for 1/|q| given n2 = |q|² = 1 + δ: q ← q − (δ/2) q, which leaves
 /// |q|² − 1 = O(δ²) + round-off, as normalising by √n2 does, without a square root or a
 /// division on a stepper's critical path. For products of unit quaternions (δ = O(ε)).
+/// Written as a correction (δ = n2 − 1 is exact, (δ/2)q is tiny, so each component is
+/// rounded once), not as the factor (3 − n2)/2: that factor, rounded to the spacing of
+/// numbers just above 2 when n2 < 1, under-corrects by up to ε/2 with one sign, which left
+/// |q| short on every step and drifted μ linearly (HT0, Simo-κ, h = 1/1024: 1.9e-13
+/// after 120 s; written as the correction, 2.9e-14, of either sign).
 template <class Scalar>
 inline void newton_unit(Eigen::Quaternion<Scalar>& q, Scalar n2) {
-  q.coeffs() *= (Scalar(3) - n2) / Scalar(2);
+  const Scalar half_delta = (n2 - Scalar(1)) / Scalar(2);
+  q.coeffs() -= half_delta * q.coeffs();
 }
 }  // namespace detail
 

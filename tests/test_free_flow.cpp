@@ -102,6 +102,10 @@ std::vector<Body> random_bodies() {
     V3<double> J(a, a * (1 + 1e-8), 2.0 * a);
     out.push_back({"nearly symmetric", J, V3<double>(U(rng), U(rng), 1.0 + 0.5 * U(rng))});
   }
+  for (int k = 0; k < 2; ++k) {  // HTA's body near a spin about its min axis: k² ~ 1e-5, 5 points at L = 0.2
+    const V3<double> J(5.0, 5.5, 1.0);
+    out.push_back({"nearly a pure spin (HTA)", J, V3<double>(0.06 * U(rng), 0.06 * U(rng), (k == 0 ? 2.0 : -2.0))});
+  }
   for (int k = 0; k < 3; ++k) {  // next to the separatrix: Π about the intermediate axis
     V3<double> J(1.0, 1.0 + M(rng), 3.0 + M(rng));
     const double e = 1e-3 * (k + 1);
@@ -234,6 +238,21 @@ TEST_CASE("free flow: the series cut to the largest argument agrees with the ful
     if (umax == 0.006) CHECK(last_rows == 4);  // FB1 at h = 0.01: |v| = 0.0058
   }
   CHECK(last_rows == 8);                                                // double at |u| = 1/8
+  // The bound at this m (row_bound0 + m·row_bound): a nearly symmetric body needs fewer rows.
+  CHECK(JacobiSeries<double>(2e-5, 0.1).rows() == 6);  // HTA's k², |v| = 0.1 (8 by the m = 1 bound)
+  CHECK(JacobiSeries<double>(1.0, 0.1).rows() == 8);
+  for (double m : {1e-12, 2e-5, 1e-3}) {
+    const JacobiSeries<double> full(m);
+    for (double umax : {0.02, 0.1, 0.125}) {
+      const JacobiSeries<double> cut(m, umax);
+      for (double u = -umax; u <= umax; u += umax / 17) {
+        const auto a = full(u), b = cut(u);
+        worst = std::max({worst, std::abs(a.sn - b.sn), std::abs(a.cn - b.cn), std::abs(a.dn - b.dn)});
+        if (a.one_minus_cn > 0) worst_comp = std::max(worst_comp, std::abs(a.one_minus_cn - b.one_minus_cn) / a.one_minus_cn);
+        if (a.one_minus_dn > 0) worst_comp = std::max(worst_comp, std::abs(a.one_minus_dn - b.one_minus_dn) / a.one_minus_dn);
+      }
+    }
+  }
   CHECK(JacobiSeries<ld>(0.5L).rows() == JacobiSeries<ld>::terms);  // long double needs all 9 there
   INFO("abs " << worst << ", complements rel " << worst_comp);
   CHECK(worst <= 2 * std::numeric_limits<double>::epsilon());
@@ -299,16 +318,24 @@ TEST_CASE("free flow: one step against a long-double RK4, every branch, lambda*h
 }
 
 TEST_CASE("free flow: each Gauss-Legendre rule holds round-off up to the end of its span", "[free_flow]") {
-  // [F6]: 3 points up to |λ|h ≈ 0.0168, 5 up to ≈ 0.184, 7 above (double). One step on either
-  // side of each switch, and at the extremes, against the long-double flow (whose own
-  // switches sit elsewhere: ε is smaller), on every branch of random_bodies().
+  // [F6]: 3 points while 1.2e-5·k²L⁶ ≤ ε, 5 while 6e-9·k²L¹⁰ ≤ ε, 7 above (double, k² = 1:
+  // L ≈ 0.0165 and 0.180; the switches move out as k² falls). One step on either side of each
+  // switch at the body's k² (where it lies below ½), and at the extremes, against the
+  // long-double flow (whose own switches sit elsewhere: ε is smaller), on every branch of
+  // random_bodies().
   double worst_P = 0, worst_L = 0;
+  const double eps = std::numeric_limits<double>::epsilon();
   for (const Body& b : random_bodies()) {
     const EulerPoinsot<double> flow(b.J);
     const EulerPoinsot<ld> flow_ld(b.J.cast<ld>());
     const auto inv = flow.invariants(b.Pi);
     if (flow.symmetric() || !(std::abs(inv.lambda) > 0)) continue;
-    for (double L : {1e-3, 0.0160, 0.0175, 0.175, 0.195, 0.5}) {
+    const double m = std::max(double(inv.m), 1e-300);
+    const double L3 = std::pow(eps / (1.2e-5 * m), 1.0 / 6), L5 = std::pow(eps / (6e-9 * m), 1.0 / 10);
+    std::vector<double> spans{1e-3, 0.5};
+    for (double edge : {L3, L5})
+      if (1.03 * edge < 0.5) spans.insert(spans.end(), {0.97 * edge, 1.03 * edge});
+    for (double L : spans) {
       const double h = L / std::abs(inv.lambda);
       Quat<double> q(Eigen::AngleAxisd(0.4, V3<double>(2, 1, -0.5).normalized()));
       V3<double> P = b.Pi;
@@ -321,6 +348,7 @@ TEST_CASE("free flow: each Gauss-Legendre rule holds round-off up to the end of 
       worst_P = std::max(worst_P, eP);
       worst_L = std::max(worst_L, eL);
       INFO(b.what << " |lambda|h = " << L << " m = " << inv.m << " 1-m = " << inv.mc);
+      if (L == 0.5 && inv.m > 0) std::printf("  %s: k^2 = %.2e, rule switches at L = %.3g and %.3g\n", b.what, m, L3, L5);
       CHECK(eP <= 2e-15);
       CHECK(eL <= 4e-15);
     }

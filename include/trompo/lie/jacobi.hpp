@@ -215,6 +215,15 @@ struct JacobiSeriesTables {
     bc *= 2, bd *= 2;
     return bs > bc ? (bs > bd ? bs : bd) : (bc > bd ? bc : bd);
   }
+  /// The same bound for the terms free of m (sin's and cos's coefficients, and 1 − dn's
+  /// term in m¹, which is m·sin²u/2's): row j at parameter m is then at most
+  /// row_bound0(j) + m·row_bound(j), the rest of each polynomial being of one sign.
+  static constexpr Scalar row_bound0(int j) {
+    const Scalar bs = sn[j][0] < 0 ? -sn[j][0] : sn[j][0];
+    const Scalar bc = 2 * (cn[j][0] < 0 ? -cn[j][0] : cn[j][0]);
+    const Scalar bd = 2 * (dn[j][1] < 0 ? -dn[j][1] : dn[j][1]);
+    return bs > bc ? (bs > bd ? bs : bd) : (bc > bd ? bc : bd);
+  }
 };
 }  // namespace detail
 
@@ -230,10 +239,12 @@ struct JacobiSeriesTables {
 /// below 1.7e-20 of the leading one (sn: u; 1 − cn: u²/2; 1 − dn: m u²/2), under long
 /// double's ε. 1 − cn and 1 − dn come out as series of their own (relative accuracy).
 ///
-/// Truncation: given the largest |u| it will be evaluated at, the series keeps the rows
-/// whose bound can reach ε/16 of the leading term there (the rest, a geometric tail of
-/// ratio ≤ (2/π)² u², adds less than ε/8). At FB1's h = 0.01 that is 4 rows of 9: the
-/// coefficients and the evaluations cost a third.
+/// Truncation: given m and the largest |u| it will be evaluated at, the series keeps the
+/// rows whose bound at this m (row_bound0 + m·row_bound, JacobiSeriesTables) can reach ε/16
+/// of the leading term there (the rest, a geometric tail of ratio ≤ (2/π)² u², adds less
+/// than ε/8). At FB1's h = 0.01 that is 4 rows of 9: the coefficients and the evaluations
+/// cost a third; on a nearly symmetric body (HTA, m ≈ 2e-5) at u = 0.1, 6 rows instead of
+/// the 8 that the m = 1 bound alone keeps.
 template <class Scalar>
 class JacobiSeries {
  public:
@@ -248,7 +259,7 @@ class JacobiSeries {
     const Scalar negligible = std::numeric_limits<Scalar>::epsilon() / Scalar(16);
     Scalar wj = w;
     for (rows_ = 1; rows_ < terms; ++rows_, wj *= w)
-      if (bound_[rows_] * wj <= negligible) break;
+      if ((bound0_[rows_] + m * bound_[rows_]) * wj <= negligible) break;
     for (int j = 0; j < rows_; ++j) {
       s_[j] = horner(T::sn[j], j + 1, m);
       c_[j] = horner(T::cn[j], j + 1, m);
@@ -289,6 +300,12 @@ class JacobiSeries {
       detail::JacobiSeriesTables<Scalar>::row_bound(4), detail::JacobiSeriesTables<Scalar>::row_bound(5),
       detail::JacobiSeriesTables<Scalar>::row_bound(6), detail::JacobiSeriesTables<Scalar>::row_bound(7),
       detail::JacobiSeriesTables<Scalar>::row_bound(8)};
+  static constexpr Scalar bound0_[terms] = {
+      detail::JacobiSeriesTables<Scalar>::row_bound0(0), detail::JacobiSeriesTables<Scalar>::row_bound0(1),
+      detail::JacobiSeriesTables<Scalar>::row_bound0(2), detail::JacobiSeriesTables<Scalar>::row_bound0(3),
+      detail::JacobiSeriesTables<Scalar>::row_bound0(4), detail::JacobiSeriesTables<Scalar>::row_bound0(5),
+      detail::JacobiSeriesTables<Scalar>::row_bound0(6), detail::JacobiSeriesTables<Scalar>::row_bound0(7),
+      detail::JacobiSeriesTables<Scalar>::row_bound0(8)};
   int rows_ = terms;
   Scalar s_[terms], c_[terms], d_[terms];
 };

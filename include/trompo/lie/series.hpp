@@ -39,6 +39,19 @@ constexpr Scalar polynomial(Scalar x, const std::array<long double, 7>& c) {
   return (p01 + x2 * p23) + x4 * (p45 + x2 * Scalar(c[6]));
 }
 
+/// The Taylor coefficients in x = θ² of the four functions every other series here is built
+/// from, exact rationals (each written once):
+///   sin θ/θ = Σ (−x)^k/(2k + 1)!,   cos θ = Σ (−x)^k/(2k)!,
+///   (1 − cos θ)/θ² = Σ (−x)^k/(2k + 2)!,   (θ − sin θ)/θ³ = Σ (−x)^k/(2k + 3)!.
+inline constexpr std::array<long double, 7> sinc_series{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880,
+                                                        -1.0L / 39916800, 1.0L / 6227020800.0L};
+inline constexpr std::array<long double, 7> cos_series{1.0L, -1.0L / 2, 1.0L / 24, -1.0L / 720, 1.0L / 40320,
+                                                       -1.0L / 3628800, 1.0L / 479001600.0L};
+inline constexpr std::array<long double, 7> one_minus_cos_over_sq_series{
+    1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L};
+inline constexpr std::array<long double, 7> theta_minus_sin_over_cube_series{
+    1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L};
+
 /// sin y and cos y: below small_angle by their series (seven terms each: the truncation is
 /// below 1e-19 relative for |y| < ¼), else the library's. The splitting's flows turn by
 /// such small angles on ordinary steps, where the series cost half of sin and cos.
@@ -48,10 +61,8 @@ void sin_cos(Scalar y, Scalar& s, Scalar& c) {
   using std::sin;
   if (std::abs(y) < small_angle<Scalar>::theta) {
     const Scalar x = y * y;
-    s = y * polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880,
-                                                     -1.0L / 39916800, 1.0L / 6227020800.0L});
-    c = polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 2, 1.0L / 24, -1.0L / 720, 1.0L / 40320,
-                                                 -1.0L / 3628800, 1.0L / 479001600.0L});
+    s = y * polynomial(x, sinc_series);
+    c = polynomial(x, cos_series);
     return;
   }
   s = sin(y);
@@ -64,7 +75,7 @@ Scalar sinc(Scalar theta) {
   using std::sin;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L});
+    return polynomial(x, sinc_series);
   }
   return sin(theta) / theta;
 }
@@ -75,7 +86,7 @@ Scalar one_minus_cos_over_sq(Scalar theta) {
   using std::cos;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return polynomial(x, std::array<long double, 7>{1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L});
+    return polynomial(x, one_minus_cos_over_sq_series);
   }
   return (Scalar(1) - cos(theta)) / (theta * theta);
 }
@@ -86,7 +97,7 @@ Scalar theta_minus_sin_over_cube(Scalar theta) {
   using std::sin;
   if (std::abs(theta) < small_angle<Scalar>::theta) {
     const Scalar x = theta * theta;
-    return polynomial(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+    return polynomial(x, theta_minus_sin_over_cube_series);
   }
   return (theta - sin(theta)) / (theta * theta * theta);
 }
@@ -128,9 +139,9 @@ struct HalfAngle {
 
 template <class Scalar>
 HalfAngle<Scalar> half_angle_series(Scalar x) {  // x = (θ/2)², below the switch
-  return {polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 6, 1.0L / 120, -1.0L / 5040, 1.0L / 362880, -1.0L / 39916800, 1.0L / 6227020800.0L}),
-          polynomial(x, std::array<long double, 7>{1.0L, -1.0L / 2, 1.0L / 24, -1.0L / 720, 1.0L / 40320, -1.0L / 3628800, 1.0L / 479001600.0L}),
-          polynomial(x, std::array<long double, 7>{1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L})};
+  return {polynomial(x, sinc_series),
+          polynomial(x, cos_series),
+          polynomial(x, one_minus_cos_over_sq_series)};
 }
 
 template <class Scalar>
@@ -167,8 +178,8 @@ template <class Scalar>
 Scalar one_minus_kappa(Scalar theta) {
   const Scalar x = theta * theta / 4;  // (θ/2)²
   if (std::abs(theta) < 2 * small_angle<Scalar>::theta) {
-    // 1 − sinc(y) = y²/3! − y⁴/5! + …,  y = θ/2
-    return x * polynomial(x, std::array<long double, 7>{1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L});
+    // 1 − sinc(y) = y²/3! − y⁴/5! + … = y²·(y − sin y)/y³,  y = θ/2
+    return x * polynomial(x, theta_minus_sin_over_cube_series);
   }
   return Scalar(1) - kappa(theta);
 }

@@ -197,6 +197,7 @@ cases::Case<Damped> spin_down() {
 void register_spin_down() {
   Problem<Damped>& p = spin_downs.emplace_back(Problem<Damped>{spin_down(), {}, 1e-3, {}, {}, {}, {}, {}});
   p.ref = composed_reference(p.c, 100000);
+  benchmark::AddCustomContext("reference_spin-down", p.ref.source);
   const Grid o4{0.05, 2.5e-4}, o6{0.1, 1e-3};
   for (Composition m : {Composition::suzuki5, Composition::kahan_li9}) {
     const int order = m == Composition::suzuki5 ? 4 : 6;

@@ -108,10 +108,17 @@ RunStats<typename Stepper::Scalar> run(const Stepper& stepper, StateT s, typenam
   for (long k = 0; k < n; ++k) {
     trompo::StepReport<Scalar> rep = stepper.step(s, h);
     if (!rep.ok() && recover) {
-      st.first_failure = rep.status;
+      if (st.first_failure == trompo::StepStatus::ok) st.first_failure = rep.status;
+      trompo::StepReport<Scalar> whole = rep;  // the work of every attempt, as integrate() counts it
       rep = stepper.step(s, h / 2);
-      if (rep.ok()) rep = stepper.step(s, h / 2);
+      whole.add_work(rep);
+      if (rep.ok()) {
+        const trompo::StepReport<Scalar> second = stepper.step(s, h / 2);
+        whole.add_work(second);
+        rep.status = second.status;
+      }
       if (rep.ok()) ++st.recovered;
+      rep.iterations = whole.iterations;
     }
     if (!rep.ok()) {
       ++st.failures;

@@ -335,8 +335,9 @@ class EulerPoinsot {
     }
     const long panels = span > Scalar(1) ? long(ceil(span)) : 1L;
     const Scalar hp = h / Scalar(panels);
-    // The quadrature rule by the panel's span of u [F6]: 7 points where a panel reaches
-    // |λ|h_p = ½ (7 hold round-off there, next to the separatrix too), 5 or 3 on shorter ones.
+    // The quadrature rule by the panel's span of u and by k² [F6]: 7 points hold round-off up
+    // to |λ|h_p = ½ at any k² (next to the separatrix too); 5 or 3 serve shorter panels, and
+    // longer ones as k² falls (at L = ½: 5 points below k² ≈ 4e-5, 3 below ≈ 1e-9).
     Scalar Q1 = ph.P1, Q2 = ph.P2, Q3 = ph.P3;  // Π in slots, advanced by increments
     // The rule's error on a panel of span L = |λ|h_p, in the attitude: ≤ A_n·m·L^{2n}, with
     // A₃ = 6e-6 and A₅ = 3e-9, the largest ratios measured over 30,000 random bodies
@@ -344,7 +345,8 @@ class EulerPoinsot {
     // random, L from 0.1 to 0.5) against the 7-point rule. The factor m: the integrand
     // p/(G + p) varies only through dn, whose swing is m, so a nearly symmetric body needs
     // fewer points at a given L (HTA, k² ≈ 2e-5, L = 0.2: 5 points instead of 7). n points
-    // serve while 2·A_n·m·L^{2n} ≤ ε (m = 1, double: L ≤ 0.017 and 0.18, as before).
+    // serve while 2·A_n·m·L^{2n} ≤ ε (m = 1, double: L ≤ 0.0163 and 0.181; 0.0168 and 0.184
+    // from the earlier k²-blind fit).
     const Scalar eps = std::numeric_limits<Scalar>::epsilon();
     const Scalar L = abs(ph.lambda * hp), L2 = L * L, mL6 = ph.m * L2 * L2 * L2;
     const Scalar sum = Scalar(1.2e-5) * mL6 <= eps        ? sweep<detail::GaussLegendre<Scalar, 3>>(ph, panels, hp, Q1, Q2, Q3)

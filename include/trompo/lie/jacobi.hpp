@@ -20,7 +20,9 @@
 // m' = 0 exactly (the separatrix): sn = tanh u, cn = dn = sech u.
 //
 // For small arguments JacobiSeries evaluates the Maclaurin series in u directly (no ladder).
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 namespace trompo {
@@ -224,6 +226,12 @@ struct JacobiSeriesTables {
     const Scalar bd = 2 * (dn[j][1] < 0 ? -dn[j][1] : dn[j][1]);
     return bs > bc ? (bs > bd ? bs : bd) : (bc > bd ? bc : bd);
   }
+  /// row_bound0 (m_free) or row_bound of every row.
+  static constexpr std::array<Scalar, terms> row_bounds(bool m_free) {
+    std::array<Scalar, terms> b{};
+    for (int j = 0; j < terms; ++j) b[std::size_t(j)] = m_free ? row_bound0(j) : row_bound(j);
+    return b;
+  }
 };
 }  // namespace detail
 
@@ -294,18 +302,8 @@ class JacobiSeries {
     for (int k = n - 2; k >= 0; --k) v = v * m + p[k];
     return v;
   }
-  static constexpr Scalar bound_[terms] = {
-      detail::JacobiSeriesTables<Scalar>::row_bound(0), detail::JacobiSeriesTables<Scalar>::row_bound(1),
-      detail::JacobiSeriesTables<Scalar>::row_bound(2), detail::JacobiSeriesTables<Scalar>::row_bound(3),
-      detail::JacobiSeriesTables<Scalar>::row_bound(4), detail::JacobiSeriesTables<Scalar>::row_bound(5),
-      detail::JacobiSeriesTables<Scalar>::row_bound(6), detail::JacobiSeriesTables<Scalar>::row_bound(7),
-      detail::JacobiSeriesTables<Scalar>::row_bound(8)};
-  static constexpr Scalar bound0_[terms] = {
-      detail::JacobiSeriesTables<Scalar>::row_bound0(0), detail::JacobiSeriesTables<Scalar>::row_bound0(1),
-      detail::JacobiSeriesTables<Scalar>::row_bound0(2), detail::JacobiSeriesTables<Scalar>::row_bound0(3),
-      detail::JacobiSeriesTables<Scalar>::row_bound0(4), detail::JacobiSeriesTables<Scalar>::row_bound0(5),
-      detail::JacobiSeriesTables<Scalar>::row_bound0(6), detail::JacobiSeriesTables<Scalar>::row_bound0(7),
-      detail::JacobiSeriesTables<Scalar>::row_bound0(8)};
+  static constexpr std::array<Scalar, terms> bound_ = detail::JacobiSeriesTables<Scalar>::row_bounds(false);
+  static constexpr std::array<Scalar, terms> bound0_ = detail::JacobiSeriesTables<Scalar>::row_bounds(true);
   int rows_ = terms;
   Scalar s_[terms], c_[terms], d_[terms];
 };

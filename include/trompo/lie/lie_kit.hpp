@@ -25,9 +25,7 @@ Scalar sinc_prime_over_theta(Scalar phi) {
   using std::cos;
   using std::sin;
   if (std::abs(phi) < small_angle<Scalar>::theta)
-    return polynomial(phi * phi, std::array<long double, 7>{-1.0L / 3.0L, 1.0L / 30.0L, -1.0L / 840.0L, 1.0L / 45360.0L,
-                                                            -1.0L / 3991680.0L, 1.0L / 518918400.0L,
-                                                            -1.0L / 93405312000.0L});
+    return polynomial(phi * phi, sinc_prime_over_theta_series);
   return (phi * cos(phi) - sin(phi)) / (phi * phi * phi);
 }
 

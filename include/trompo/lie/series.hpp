@@ -51,6 +51,9 @@ inline constexpr std::array<long double, 7> one_minus_cos_over_sq_series{
     1.0L / 2, -1.0L / 24, 1.0L / 720, -1.0L / 40320, 1.0L / 3628800, -1.0L / 479001600.0L, 1.0L / 87178291200.0L};
 inline constexpr std::array<long double, 7> theta_minus_sin_over_cube_series{
     1.0L / 6, -1.0L / 120, 1.0L / 5040, -1.0L / 362880, 1.0L / 39916800, -1.0L / 6227020800.0L, 1.0L / 1307674368000.0L};
+/// And of (θ cos θ − sin θ)/θ³ = sinc′(θ)/θ = Σ (−x)^{k+1}(2k + 2)/(2k + 3)!.
+inline constexpr std::array<long double, 7> sinc_prime_over_theta_series{
+    -1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L};
 
 /// sin y and cos y: below small_angle by their series (seven terms each: the truncation is
 /// below 1e-19 relative for |y| < ¼), else the library's. The splitting's flows turn by
@@ -194,8 +197,7 @@ Scalar kappa_prime_over_theta(Scalar theta) {
   if (std::abs(y) < small_angle<Scalar>::theta) {
     // d/dθ sinc(θ/2) = ½ sinc′(y);  sinc′(y)/y = −1/3 + y²/30 − y⁴/840 + …;  /θ = /(2y)
     const Scalar x = y * y;
-    return polynomial(x, std::array<long double, 7>{-1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L}) /
-           4;
+    return polynomial(x, sinc_prime_over_theta_series) / 4;
   }
   return (y * cos(y) - sin(y)) / (theta * theta * theta / 2);
 }

@@ -10,6 +10,8 @@
 // Method names: splitting-strang, splitting-chin-4a, splitting-chin-tj (triple jump of Chin,
 // order 6), splitting-suzuki-5, splitting-kahan-li-9; the projected variants [S12] are
 // splitting-projected-<method>. scripts/report/splitting.py reads them for the target table.
+#include <array>
+#include <cstddef>
 #include <deque>
 #include <string>
 
@@ -186,6 +188,23 @@ void register_splitting_steps() {
   // are its per-step cost, beside step/fb1/odeint-rk4.
   for (SplittingMethod m : {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9})
     step<Splitting>(frees[0], m);
+#if TROMPO_BENCH_EXACT
+  // step/fb1/exact-free-body: exact::FreeBody evaluated at any t, one Λ(t) per iteration at
+  // 1,000 times spread over [0, 1000] (one call of the free flow over t modulo the period of Π,
+  // then the whole periods' precession; Ω(t) costs as much again). Per evaluation, in ns.
+  benchmark::RegisterBenchmark("step/fb1/exact-free-body", [](benchmark::State& st) {
+    const Problem<Free>& p = frees[0];
+    const exact::FreeBody body(p.c.scene.body().inertia().diagonal(), p.c.initial.rotation.matrix(), p.c.initial.omega);
+    std::array<double, 1000> times{};
+    for (std::size_t i = 0; i < times.size(); ++i) times[i] = 1000.0 * double((i * 617) % times.size()) / double(times.size()) + 0.37;
+    std::size_t k = 0;
+    for (auto _ : st) {
+      benchmark::DoNotOptimize(body.rotation(times[k]));
+      k = k + 1 == times.size() ? 0 : k + 1;
+    }
+    st.SetLabel(label_of("fb1", "exact-free-body", "exact::FreeBody", 0, 1000.0, 0, 1));
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
+#endif
 }
 
 void register_splitting_sweeps() {

@@ -152,6 +152,11 @@ def section(sweep, steps):
                  f"{a['ns']:.0f} ns | runge_kutta4 {o['ns']:.0f} ns | {r:.2f}× of rk4 | {'yes' if r <= 2.5 else 'no'} |")
     for bound, need in ((1e-8, 50), (1e-10, 100)):
         add(f"free body, t = 100: ≥ {need}×", f"FB1, ‖ΔΛ‖ ≤ {bound:g}", *measure(sweep, "fb1", bound), need)
+    e = steps.get(("fb1", "exact-free-body"))
+    if e:
+        L.append(f"| exact::FreeBody at any t within 5 µs | FB1, Λ(t) at 1,000 times over [0, 1000] | "
+                 f"{e['ns'] / 1e3:.2f} µs an evaluation (median of 3; {e['ns_min'] / 1e3:.2f}–{e['ns_max'] / 1e3:.2f}) | "
+                 f"— | — | {'yes' if e['ns'] <= 5000 else 'no'} |")
     for case, name in (("hta", "HTA"), ("ht2a", "HT2A")):
         for bound, need in ((1e-8, 6), (1e-10, 4)):
             add(f"fast asymmetric top ({name}, full inertia): ≥ {need}×", f"{name}, ‖ΔΛ‖ ≤ {bound:g}",

@@ -42,17 +42,27 @@ struct DenseNode {
   bool second = false;
 };
 
-/// Ω̇ of the scene at (Λ, Ω, t), Λ as a matrix: the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r.
+/// Ω̇ from the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r, given the body torque τ [D3].
+template <class Scene>
+Eigen::Matrix<typename Scene::Scalar, 3, 1> euler_rate(const Scene& scene,
+                                                       const Eigen::Matrix<typename Scene::Scalar, 3, 1>& omega,
+                                                       const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque) {
+  return scene.body().inertia_inverse() * (scene.momentum(omega).cross(omega) + torque);
+}
+
+/// Ω̇ of the scene at (Λ, Ω, t), Λ as a matrix: euler_rate with the scene's body torque.
 template <class Scene>
 Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene,
                                                        const Eigen::Matrix<typename Scene::Scalar, 3, 3>& rotation,
                                                        const Eigen::Matrix<typename Scene::Scalar, 3, 1>& omega,
                                                        typename Scene::Scalar t) {
   using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
-  Vector3 rhs = scene.momentum(omega).cross(omega);
-  if constexpr (Scene::has_potential || Scene::has_applied_torque) rhs += scene.body_torque(rotation, omega, t);
-  else (void)rotation, (void)t;
-  return scene.body().inertia_inverse() * rhs;
+  if constexpr (Scene::has_potential || Scene::has_applied_torque)
+    return euler_rate(scene, omega, scene.body_torque(rotation, omega, t));
+  else {
+    (void)rotation, (void)t;
+    return euler_rate(scene, omega, Vector3::Zero().eval());  // no torque
+  }
 }
 /// Ω̇ of the scene at the state s.
 template <class Scene>
@@ -313,7 +323,6 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
       Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential;
   [[maybe_unused]] typename Scene::Caches caches{};
   if constexpr (potential_only) caches = scene.caches(seg.rotation_start().matrix(), seg.t_start());
-  const auto& J_inv = scene.body().inertia_inverse();
   for (int i = 0; i < n_inner; ++i) {
     Vector3 xi, omega;
     seg.algebra(nodes[i], xi, omega);
@@ -327,7 +336,7 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
       const Vector3 tau_n = scene.conservative_torque_rodrigues(caches, xi, ca, cb);
       const Vector3 xt = xi.cross(tau_n);
       const Vector3 tau = tau_n - ca * xt + cb * xi.cross(xt);
-      rate_omega += weights[i] * (J_inv * (scene.momentum(omega).cross(omega) + tau));  // [D3]
+      rate_omega += weights[i] * euler_rate(scene, omega, tau);
     } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
       rate_omega += weights[i] * omega_rate(scene, seg.rotation_at(xi).matrix(), omega, seg.t_start() + nodes[i] * h);
     } else {

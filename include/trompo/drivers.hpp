@@ -5,4 +5,5 @@
 #include "trompo/drivers/dense_output.hpp"
 #include "trompo/drivers/ensemble.hpp"
 #include "trompo/drivers/integrate.hpp"
+#include "trompo/drivers/invariant_hold.hpp"
 #include "trompo/steppers.hpp"

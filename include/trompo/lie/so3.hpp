@@ -91,9 +91,18 @@ class SO3 {
   /// half_angle_from_squared): a step's update Λ_{n+1} = Λ_n exp(Θ̂). The product of two
   /// unit quaternions has |q|² = 1 + δ, δ = O(ε); it is renormalised by one Newton step
   /// for 1/|q| (detail::newton_unit). (For input quaternions use renormalized(), which also rescales.)
+  ///
+  /// The product is formed as an increment, q (cos(θ/2), v) = q + q (cos(θ/2) − 1, v) with
+  /// cos(θ/2) − 1 = −(θ/2)² b_half, so that its rounding is that of the small increment.
+  /// Formed directly, the rounding of q·cos(θ/2) (cos(θ/2) within θ²/8 of 1) leaned to one
+  /// side and moved μ by a fixed fraction of ε every step: Simo-κ on HT0 at h = 1.16e-5,
+  /// 8.6·10⁵ steps, drifted μ by 6.3e-13 that way, 5.6e-14 (a random walk) in increments.
   SO3 times_exp(const Vector3& x, const detail::HalfAngle<Scalar>& c) const {
-    const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
-    Quaternion q = q_ * Quaternion(c.cos_half, v.x(), v.y(), v.z());
+    const Vector3 v = x * (c.kappa / 2);                      // sin(θ/2)/θ = ½ sinc(θ/2)
+    const Scalar cos_half_minus_1 = -(x.squaredNorm() / 4) * c.b_half;  // −(θ/2)² (1 − cos(θ/2))/(θ/2)²
+    const Quaternion increment = q_ * Quaternion(cos_half_minus_1, v.x(), v.y(), v.z());
+    Quaternion q;
+    q.coeffs() = q_.coeffs() + increment.coeffs();
     detail::newton_unit(q, q.squaredNorm());
     return SO3(q, NoCheck{});
   }

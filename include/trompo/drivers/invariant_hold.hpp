@@ -6,17 +6,19 @@
 // invariants walk like √N·ε over N steps (Brouwer's law: 2.7e-13 after 2.7·10⁶ steps of
 // Simo-κ on HT0 at h = 3.7e-6, fixed h, double). The adaptive driver's tight tolerances at
 // order 2 make such runs ordinary. It therefore corrects the state (after every 8th accepted
-// step, drivers/adaptive.hpp), to first order, back onto the first values — only what the stepper keeps on this scene, only where
-// the scene has these invariants (no applied torque, no time-dependent potential), and only
-// a correction of round-off size (Ω moved by at most 64ε|Ω|, Λ by 64ε rad: a larger one
-// would hide a deviation that is not round-off, and is left for the caller to see). So it
-// changes no digit that the scheme's truncation error leaves.
+// step, drivers/adaptive.hpp), to first order, back onto the first values — only what the
+// stepper keeps on this scene, only where the scene has these invariants (H: no applied
+// torque, no time-dependent potential; μ about γ: every potential a uniform gravity about the
+// one axis γ, rotors allowed — a general potential has no such μ), and only a correction of
+// round-off size (on a top Ω moved by at most 64ε|Ω|, on the free body Λ by at most 64ε rad: a
+// larger one would hide a deviation that is not round-off, and is left for the caller to
+// see). So it changes no digit that the scheme's truncation error leaves.
 //
 //   heavy top (μ = Γ·(JΩ + h_r), Γ = Λᵀγ; H = ½Ω·JΩ + V(Λ)): Ω only, Λ untouched,
 //     Ω ← Ω + β Γ,  β = (μ₀ − μ)/(Γ·JΓ)                      (μ; ∂μ/∂Ω = JΓ)
 //     Ω ← Ω + α v,  v = Ω − ((Ω·JΓ)/(Γ·JΓ)) Γ,  α = (H₀ − H)/(v·Jv)   (H; v·JΓ = 0 keeps μ)
-//   free body (π = Λ(JΩ + h_r), H = ½Ω·JΩ):
-//     Ω ← J⁻¹(Λᵀπ₀ − h_r)                                    (π)
+//   free body (no effect at all; π = ΛJΩ, H = ½Ω·JΩ):
+//     Ω ← J⁻¹Λᵀπ₀                                             (π)
 //     (Λ, Π) ← (Λ exp(λn̂), Π − λ n × Π),  n = Π̇/|Π̇|, Π̇ = Π × Ω,  λ = (H − H₀)/|Π̇|
 //                                          (H; the flow of n·Π keeps π, dH/dλ = −|Π̇|, [S12])
 // The H step is skipped where it has no direction (v = 0: a sleeping top, Ω ∥ Γ; Π̇ = 0: a
@@ -25,7 +27,9 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <limits>
+#include <tuple>
 
+#include "trompo/model/effects/effect.hpp"
 #include "trompo/model/state.hpp"
 #include "trompo/schemes/scheme.hpp"
 
@@ -45,12 +49,12 @@ class InvariantHold {
   InvariantHold() = default;
 
   /// Holds, at their values in `first`, the invariants of `scene` that `keeps` names:
-  /// H without applied torques or a time-dependent potential, μ on a scene with a
-  /// potential or rotor, π on the free body.
+  /// H without applied torques or a time-dependent potential, μ where every potential is a
+  /// uniform gravity about the scene's momentum axis γ (rotors allowed), π on the free body.
   InvariantHold(const Scene& scene, const State<Scalar>& first, const Keeps& keeps) {
     if constexpr (!Scene::has_applied_torque && !Scene::has_time_dependent_potential) {
       energy_ = keeps.energy;
-      momentum_map_ = keeps.momentum_map && !Scene::is_free;
+      momentum_map_ = keeps.momentum_map && !Scene::is_free && symmetric_about_axis(scene);
       spatial_momentum_ = keeps.spatial_momentum && Scene::is_free;
     }
     H0_ = scene.energy(first);
@@ -60,6 +64,8 @@ class InvariantHold {
 
   /// Whether anything is held.
   bool active() const { return energy_ || momentum_map_ || spatial_momentum_; }
+  /// What is held (energy, momentum_map, spatial_momentum).
+  Keeps holds() const { return Keeps{.energy = energy_, .momentum_map = momentum_map_, .spatial_momentum = spatial_momentum_}; }
 
   /// Corrects `s` onto the first values ([A7]); a correction that would move Ω by more than
   /// 64ε|Ω| (or Λ by more than 64ε rad) is not round-off's, and is not made.
@@ -74,6 +80,22 @@ class InvariantHold {
  private:
   /// The largest correction made: 64ε, of |Ω| or in rad.
   static constexpr Scalar nudge = Scalar(64) * std::numeric_limits<Scalar>::epsilon();
+
+  /// Whether μ = γ·π is an invariant of the scene's flow: every effect a rotor or a uniform
+  /// gravity (an effect with up()) about γ = momentum_axis(); a general potential's torque
+  /// has a component along γ.
+  static bool symmetric_about_axis(const Scene& scene) {
+    const Vector3 axis = scene.momentum_axis();
+    bool symmetric = true;
+    std::apply([&](const auto&... e) { ((symmetric = symmetric && about(e, axis)), ...); }, scene.effects());
+    return symmetric;
+  }
+  template <class E>
+  static bool about(const E& e, const Vector3& axis) {
+    if constexpr (Scene::template is_kind<E, rotor_kind>) return true;
+    else if constexpr (requires { e.up(); }) return (e.up().normalized() - axis.normalized()).norm() <= nudge;
+    else return false;
+  }
 
   void hold_top(const Scene& scene, State<Scalar>& s) const {
     const auto& J = scene.body().inertia();
@@ -98,9 +120,8 @@ class InvariantHold {
   void hold_free(const Scene& scene, State<Scalar>& s) const {
     using std::abs;
     const auto& J_inv = scene.body().inertia_inverse();
-    const Vector3 h_r = scene.momentum(Vector3::Zero());  // the rotor's momentum, if any
     if (spatial_momentum_) {
-      const Vector3 omega = J_inv * (s.rotation.inverse() * pi0_ - h_r);  // Ω = J⁻¹(Λᵀπ₀ − h_r)
+      const Vector3 omega = J_inv * (s.rotation.inverse() * pi0_);  // Ω = J⁻¹Λᵀπ₀
       if ((omega - s.omega).squaredNorm() <= nudge * nudge * s.omega.squaredNorm()) s.omega = omega;
     }
     if (energy_) {
@@ -112,7 +133,7 @@ class InvariantHold {
       if (!(abs(lambda) <= nudge)) return;
       const Vector3 n = Pi_dot / rate;
       s.rotation = s.rotation.times_exp(lambda * n, detail::half_angle(abs(lambda)));
-      s.omega = J_inv * (Pi - lambda * n.cross(Pi) - h_r);
+      s.omega = J_inv * (Pi - lambda * n.cross(Pi));
     }
   }
 

@@ -109,10 +109,9 @@ class InvariantHold {
     }
     if (energy_) {
       const Vector3 v = momentum_map_ ? Vector3(s.omega - (s.omega.dot(JGamma) / GJG) * Gamma) : s.omega;
-      const Scalar H = scene.kinetic_energy(s.omega) + scene.potential_energy(s.rotation);
       const Scalar vJv = v.dot(J * v);
       if (!(vJv > Scalar(0))) return;  // v = 0: a sleeping top, no direction that keeps μ
-      const Scalar alpha = (H0_ - H) / vJv;  // α = (H₀ − H)/(v·Jv)
+      const Scalar alpha = (H0_ - scene.energy(s)) / vJv;  // α = (H₀ − H)/(v·Jv)
       if (alpha * alpha * v.squaredNorm() <= limit) s.omega += alpha * v;
     }
   }
@@ -129,7 +128,7 @@ class InvariantHold {
       const Vector3 Pi_dot = Pi.cross(s.omega);
       const Scalar rate = Pi_dot.norm();
       if (!(rate > Scalar(0))) return;  // a steady spin about a principal axis
-      const Scalar lambda = (scene.kinetic_energy(s.omega) - H0_) / rate;  // λ = (H − H₀)/|Π̇|
+      const Scalar lambda = (scene.energy(s) - H0_) / rate;  // λ = (H − H₀)/|Π̇|
       if (!(abs(lambda) <= nudge)) return;
       const Vector3 n = Pi_dot / rate;
       s.rotation = s.rotation.times_exp(lambda * n, detail::half_angle(abs(lambda)));

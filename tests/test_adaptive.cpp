@@ -127,7 +127,7 @@ TEST_CASE("adaptive: the defect estimate is the step's local error (orders 2, 4,
   const Exact ex = exact_of(c);
   for (int order : {2, 4, 6}) {
     ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, order);
-    const int points = order <= 2 ? 3 : 4;  // as the driver (adaptive.hpp)
+    const DefectRule rule = order <= 2 ? DefectRule::simpson : DefectRule::hermite;  // as the driver (adaptive.hpp)
     double prev = 0;
     for (double h : {0.02, 0.01, 0.005}) {
       State<double> a;
@@ -140,7 +140,7 @@ TEST_CASE("adaptive: the defect estimate is the step's local error (orders 2, 4,
       b.time = t1;
       const DenseNode<double> na = dense_node(c.scene, a), nb = dense_node(c.scene, b);
       V3 e_rot, e_om;
-      defect_estimate(c.scene, na, nb, LieHermite<double>(na, nb), points, e_rot, e_om);
+      defect_estimate(c.scene, na, nb, LieHermite<double>(na, nb), rule, e_rot, e_om);
       // the true error in the same chart: φ − ξ_z(h), ξ_z(h) = log(Λ_aᵀ Λ_exact(t1))
       const V3 xi_exact = (a.rotation.inverse() * SO3<double>::from_matrix(ex.rotation(t1), 1e-8)).log();
       const V3 true_rot = (a.rotation.inverse() * b.rotation).log() - xi_exact;
@@ -151,6 +151,16 @@ TEST_CASE("adaptive: the defect estimate is the step's local error (orders 2, 4,
                   order, h, e_rot.norm(), true_rot.norm(), rel_rot, e_om.norm(), true_om.norm(), rel_om);
       if (prev > 0) std::printf(", fell by %.1f (2^%d = %d)", prev / e_om.norm(), order + 1, 1 << (order + 1));
       std::printf("\n");
+      if (order == 4 && h <= 0.01) {
+        // Hermite's rule against Lobatto's four points (two interior evaluations, the same
+        // O(h⁷)): at order 4 both are the local error's estimate to O(h²) of it.
+        V3 l_rot, l_om;
+        defect_estimate(c.scene, na, nb, LieHermite<double>(na, nb), DefectRule::lobatto4, l_rot, l_om);
+        std::printf("  Lobatto's four points: |e_rot| %.3e, |e_om| %.3e (Hermite's off them by %.1e, %.1e)\n", l_rot.norm(),
+                    l_om.norm(), (e_rot - l_rot).norm() / l_rot.norm(), (e_om - l_om).norm() / l_om.norm());
+        CHECK((e_rot - l_rot).norm() <= 0.01 * l_rot.norm());
+        CHECK((e_om - l_om).norm() <= 0.01 * l_om.norm());
+      }
       if (h < 0.01) {
         // Orders 2 and 4: the local error itself, to O(h·|J|) (h|Ω| = 0.25 here). Order 6:
         // the quintic interpolant's own error enters at the same O(h⁷) (docs/theory.md

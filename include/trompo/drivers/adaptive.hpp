@@ -19,9 +19,10 @@
 // H and μ (π), which stops round-off's √N·ε walk over long runs. Two error estimates (`AdaptiveOptions::estimate`):
 //  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
 //    the integral of the defect u' − f(u) of the step's Lie–Hermite interpolant u (cubic at
-//    order 2, quintic at orders 4 and 6), by a Lobatto rule whose ends are the nodes' rates:
-//    1 new evaluation of Ω̇ at order 2, 2 at orders 4 and 6, plus the end node (Ω̇, and Ω̈
-//    for the quintic), which the dense output and events reuse;
+//    order 2, quintic at orders 4 and 6), by Simpson's rule (order 2) or Hermite's (orders
+//    4 and 6: Simpson's nodes plus the rates' derivatives at the ends, which the quintic
+//    has), whose ends are the nodes' rates: 1 new evaluation of Ω̇ per attempt, plus the
+//    end node (Ω̇, and Ω̈ for the quintic), which the dense output and events reuse;
 //  - doubling (orders above 6): Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y), the run advancing with the
 //    halves, e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1); three steps per attempt.
 // The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
@@ -412,11 +413,11 @@ struct AdaptiveLoop {
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
   bool dense() const { return observed || (event_list && !event_list->empty()); }
 
-  // Tolerance mode with the defect estimate [D4]: the Lobatto rule's size (3 points for
-  // order 2, 4 for orders 4 and 6), and the dense nodes of the current state (a) and of the attempt (b),
-  // kept so that each accepted step evaluates one new node.
+  // Tolerance mode with the defect estimate [D4]: its quadrature (Simpson's for order 2,
+  // Hermite's for orders 4 and 6), and the dense nodes of the current state (a) and of the
+  // attempt (b), kept so that each accepted step evaluates one new node.
   bool use_defect = false;
-  int lobatto_points = 0;
+  DefectRule defect_rule = DefectRule::simpson;
   /// The defect attempt steps `traj` itself when the stepper's memory is only a hint (a
   /// history predictor) or absent: a rejected step puts back the state alone, the memory
   /// keeping that step's history as a hint (any memory is a correct start for such a
@@ -587,7 +588,7 @@ struct AdaptiveLoop {
     if (!use_defect) return attempt_doubling(h, next, status);
     // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
     // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
-    const bool quintic_estimate = lobatto_points > 3;
+    const bool quintic_estimate = defect_rule != DefectRule::simpson;
     if (!have_node_a) {
       node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj), quintic_estimate);
       have_node_a = true;
@@ -606,7 +607,7 @@ struct AdaptiveLoop {
     if (quintic_estimate) add_second_rate(stepper.scene(), node_a);  // a cubic attempt's start
     attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
     Vector3 e_rot, e_om;
-    defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, lobatto_points, e_rot, e_om);
+    defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, defect_rule, e_rot, e_om);
     return error_norm(e_rot, e_om, node_a.state.omega.norm(), end.omega.norm(), h);
   }
 
@@ -745,7 +746,7 @@ struct AdaptiveLoop {
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
     use_defect = opt.estimate == ErrorEstimate::defect || (opt.estimate == ErrorEstimate::automatic && p <= 6);
-    lobatto_points = p <= 2 ? 3 : 4;  // [D4]: Simpson for order 2; 4 points for orders 4 and 6
+    defect_rule = p <= 2 ? DefectRule::simpson : DefectRule::hermite;  // [D4]
     Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {

@@ -73,6 +73,29 @@ Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene, const
     return omega_rate(scene, Eigen::Matrix<typename Scene::Scalar, 3, 3>::Identity(), s.omega, s.time);
 }
 
+namespace detail {
+/// Whether the scene's torques are time-independent potentials alone: their caches at Λ
+/// give the torque and its exact rate, and serve points Λ exp(ξ̂) near Λ.
+template <class Scene>
+inline constexpr bool potential_only =
+    Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential;
+
+/// Ω̈ of a node with Ω̇ under time-independent potentials alone, from the caches at the
+/// node's Λ and the body torque τ there [D3]: τ_body = Rᵀτ_n(R) at R = exp(tΩ̂), so
+/// τ̇_body = K Ω − Ω × τ (τ_n's rate, the frame turning).
+template <class Scene>
+void second_rate_of_potential(const Scene& scene, const typename Scene::Caches& c,
+                              const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque,
+                              DenseNode<typename Scene::Scalar>& n) {
+  using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
+  const State<typename Scene::Scalar>& s = n.state;
+  Vector3 rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
+  rhs += scene.conservative_torque_rate(c, s.omega) - s.omega.cross(torque);
+  n.omega_ddot = scene.body().inertia_inverse() * rhs;
+  n.second = true;
+}
+}  // namespace detail
+
 /// Fills Ω̈ of a node that has Ω̇ (node.second afterwards): the time derivative of the
 /// Euler equation [D3]. Its torque rate τ̇ (of the torque in the body frame, which turns
 /// with Ω): for time-independent potentials alone, exact from the torque's tangent,
@@ -89,38 +112,47 @@ void add_second_rate(const Scene& scene, DenseNode<typename Scene::Scalar>& n) {
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   if (n.second) return;
   const State<Scalar>& s = n.state;
-  const auto& J = scene.body().inertia();
-  Vector3 rhs = (J * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
-  if constexpr (Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential) {
-    // τ_body = Rᵀτ_n(R) at R = exp(tΩ̂): τ̇_body = K Ω − Ω × τ (τ_n's rate, the frame turning)
+  if constexpr (detail::potential_only<Scene>) {
     const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
-    rhs += scene.conservative_torque_rate(c, s.omega) -
-           s.omega.cross(scene.conservative_torque(c, Matrix3::Identity()));
-  } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
-    using std::sqrt;
-    const Matrix3 R = s.rotation.matrix();
-    const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
-    const Scalar delta = Scalar(6e-6) / rate;
-    const Matrix3 dR = delta * (R * SO3<Scalar>::hat(s.omega));
-    const Vector3 dW = delta * n.omega_dot;
-    // τ is in the body frame, which turns with Ω: τ̇_body = (τ(+δ) − τ(−δ))/2δ.
-    rhs += (scene.body_torque(R + dR, s.omega + dW, s.time + delta) -
-            scene.body_torque(R - dR, s.omega - dW, s.time - delta)) /
-           (Scalar(2) * delta);
+    detail::second_rate_of_potential(scene, c, scene.conservative_torque(c, Matrix3::Identity()), n);
+    return;
+  } else {
+    Vector3 rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
+    if constexpr (Scene::has_potential || Scene::has_applied_torque) {
+      using std::sqrt;
+      const Matrix3 R = s.rotation.matrix();
+      const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
+      const Scalar delta = Scalar(6e-6) / rate;
+      const Matrix3 dR = delta * (R * SO3<Scalar>::hat(s.omega));
+      const Vector3 dW = delta * n.omega_dot;
+      // τ is in the body frame, which turns with Ω: τ̇_body = (τ(+δ) − τ(−δ))/2δ.
+      rhs += (scene.body_torque(R + dR, s.omega + dW, s.time + delta) -
+              scene.body_torque(R - dR, s.omega - dW, s.time - delta)) /
+             (Scalar(2) * delta);
+    }
+    n.omega_ddot = scene.body().inertia_inverse() * rhs;
+    n.second = true;
   }
-  n.omega_ddot = scene.body().inertia_inverse() * rhs;
-  n.second = true;
 }
 
 /// The node of a state: Ω̇ from the Euler equation and, with `second` (the quintic's
-/// need), Ω̈ (add_second_rate). The cubic needs Ω̇ only.
+/// need), Ω̈ (add_second_rate). The cubic needs Ω̇ only. Under potentials alone one
+/// rotation matrix and one set of caches serve both.
 template <class Scene>
 DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typename Scene::Scalar>& s,
                                              bool second = true) {
+  using Matrix3 = Eigen::Matrix<typename Scene::Scalar, 3, 3>;
   DenseNode<typename Scene::Scalar> n;
   n.state = s;
-  n.omega_dot = omega_rate(scene, s);
-  if (second) add_second_rate(scene, n);
+  if constexpr (detail::potential_only<Scene>) {
+    const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
+    const Eigen::Matrix<typename Scene::Scalar, 3, 1> torque = scene.conservative_torque(c, Matrix3::Identity());
+    n.omega_dot = euler_rate(scene, s.omega, torque);
+    if (second) detail::second_rate_of_potential(scene, c, torque, n);
+  } else {
+    n.omega_dot = omega_rate(scene, s);
+    if (second) add_second_rate(scene, n);
+  }
   return n;
 }
 
@@ -238,6 +270,8 @@ class LieHermite {
   const Vector3& phi() const { return xi1_; }
   /// ξ'(1)/h = T(φ)⁻¹Ω_{n+1}: the end's rate in the algebra.
   Vector3 phi_rate() const { return d1_ / h_; }
+  /// ξ''(1)/h² = d/dt T(ξ)⁻¹Ω at the end (the quintic's; zero for the cubic).
+  Vector3 phi_rate_derivative() const { return s1_ / (h_ * h_); }
   /// The step h = t_{n+1} − t_n.
   Scalar step() const { return h_; }
   /// Whether the interpolant is the quintic (else the cubic).
@@ -281,46 +315,66 @@ class LieHermite {
           wdd0_ = Vector3::Zero(), wdd1_ = Vector3::Zero();
 };
 
+/// The quadrature of the defect estimate [D4] on [0, 1], its ends the nodes' own rates.
+enum class DefectRule {
+  /// Simpson (Lobatto's 3 points, one interior evaluation): error O(h⁵), for order 2 on the
+  /// cubic interpolant.
+  simpson,
+  /// Simpson's nodes with the rates' derivatives at the ends (Hermite's rule, exact for
+  /// degree 5, error h⁷g⁽⁶⁾/604800): one interior evaluation, error O(h⁷), for orders 4 and 6
+  /// on the quintic (the end derivatives are the quintic's ξ'' and hΩ̈).
+  hermite,
+  /// Lobatto's 4 points (two interior evaluations), error O(h⁷) (h⁷g⁽⁶⁾/1512000): the
+  /// reference Hermite's rule is tested against (tests/test_adaptive.cpp).
+  lobatto4,
+};
+
 /// The local error of the step a → b from the defect of its interpolant [D4]. With z the
 /// exact solution from the start node and u the interpolant, d = u − z obeys
 /// d' = (u' − f(u)) + J d, so the step's local error d(h) = ∫(u' − f(u)) dt + O(h·|d|):
-///   e_ξ = φ − h Σ w_i T(ξ_i)⁻¹ Ω_i,   e_Ω = Ω_{n+1} − Ω_n − h Σ w_i Ω̇(Λ_i, Ω_i, t_i),
-/// a Lobatto rule on [0, 1] whose end terms are the nodes' own rates (no new evaluation
-/// there). The interpolant's own error enters only as O(h·h⁶) (quintic) and the rule's as
-/// O(h^{2n−1}): `points` = n = 3 (Simpson, one interior evaluation) for order 2, 4 (two)
-/// for orders 4 and 6 (at order 6 both the rule's and the interpolant's errors are O(h⁷),
-/// as the local error; measured, 5 points estimate no better), 5 (three) on request.
-/// Returns e_ξ (rad) and e_Ω (rad/s).
+///   e_ξ = φ − ∫₀ʰ T(ξ)⁻¹Ω dt,   e_Ω = Ω_{n+1} − Ω_n − ∫₀ʰ Ω̇(Λ, Ω, t) dt  along u,
+/// by `rule`, whose end terms are the nodes' own rates (no new evaluation there) and, for
+/// Hermite's rule, their derivatives along u, which the quintic has: d/dt T(ξ)⁻¹Ω = Ω̇_n
+/// and ξ''(1)/h², and Ω̈ of the nodes. The interpolant's own error enters only as O(h·h⁶)
+/// (quintic) or O(h·h⁴) (cubic), the rule's as its own: Simpson for order 2, Hermite's rule
+/// for orders 4 and 6 (at order 6 both errors are O(h⁷), as the local error; measured,
+/// Lobatto's 4 points estimate no better, at one more evaluation). Returns e_ξ (rad) and
+/// e_Ω (rad/s).
 template <class Scene>
 void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>& a,
                      const DenseNode<typename Scene::Scalar>& b, const LieHermite<typename Scene::Scalar>& seg,
-                     int points, Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_rot,
+                     DefectRule rule, Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_rot,
                      Eigen::Matrix<typename Scene::Scalar, 3, 1>& e_omega) {
   using Scalar = typename Scene::Scalar;
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  // Lobatto rules on [0, 1]: interior nodes θ_i (the rule is symmetric) and weights.
-  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);   // 1/√5
-  const Scalar s37 = Scalar(0.654653670707977143798292456246858L);  // √(3/7)
-  Scalar nodes[3], weights[3], w_end;
+  // interior nodes θ_i (the rules are symmetric), their weights and the ends' weight
+  const Scalar s5 = Scalar(0.447213595499957939281834733746255L);  // 1/√5
+  Scalar nodes[2], weights[2], w_end;
   int n_inner;
-  if (points <= 3) {  // Simpson
-    nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
-  } else if (points == 4) {
-    nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
-    weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
-  } else {
-    nodes[0] = (1 - s37) / 2, nodes[1] = Scalar(0.5), nodes[2] = (1 + s37) / 2;
-    weights[0] = weights[2] = Scalar(49) / Scalar(180), weights[1] = Scalar(16) / Scalar(45);
-    w_end = Scalar(1) / Scalar(20), n_inner = 3;
+  switch (rule) {
+    case DefectRule::simpson:
+      nodes[0] = Scalar(0.5), weights[0] = Scalar(2) / Scalar(3), w_end = Scalar(1) / Scalar(6), n_inner = 1;
+      break;
+    case DefectRule::hermite:  // ∫₀¹g ≈ 7/30 (g₀ + g₁) + 8/15 g(½) + 1/60 (g₀' − g₁')
+      nodes[0] = Scalar(0.5), weights[0] = Scalar(8) / Scalar(15), w_end = Scalar(7) / Scalar(30), n_inner = 1;
+      break;
+    default:
+      nodes[0] = (1 - s5) / 2, nodes[1] = (1 + s5) / 2;
+      weights[0] = weights[1] = Scalar(5) / Scalar(12), w_end = Scalar(1) / Scalar(12), n_inner = 2;
   }
   const Scalar h = seg.step();
   // the ends: T(0)⁻¹Ω_n = Ω_n, T(φ)⁻¹Ω_{n+1}; Ω̇ of the nodes
   Vector3 rate_xi = w_end * (a.state.omega + seg.phi_rate());
   Vector3 rate_omega = w_end * (a.omega_dot + b.omega_dot);
+  if (rule == DefectRule::hermite) {  // + h/60 (g'(0) − g'(1)), g' = dg/dt along u
+    eigen_assert(seg.quintic() && a.second && b.second && "defect_estimate: Hermite's rule needs the quintic");
+    const Scalar w_rate = h / Scalar(60);
+    rate_xi += w_rate * (a.omega_dot - seg.phi_rate_derivative());
+    rate_omega += w_rate * (a.omega_ddot - b.omega_ddot);
+  }
   // Time-independent potentials alone: their caches at Λ_n serve every node, whose torque
   // at Λ_n exp(ξ̂) comes from ξ and the coefficients of exp (eq. (8)) without forming Λ_i.
-  constexpr bool potential_only =
-      Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential;
+  constexpr bool potential_only = detail::potential_only<Scene>;
   [[maybe_unused]] typename Scene::Caches caches{};
   if constexpr (potential_only) caches = scene.caches(seg.rotation_start().matrix(), seg.t_start());
   for (int i = 0; i < n_inner; ++i) {

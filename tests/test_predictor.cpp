@@ -120,6 +120,26 @@ TEST_CASE("history predictor: the memory fills, and restarts on a change of h", 
   CHECK(traj.memory.count == 0);
 }
 
+TEST_CASE("history predictor: steps that differ by the rounding of t keep the history (the adaptive driver's steps)",
+          "[predictor]") {
+  // t_{n+1} − t_n at a held h differs from h by ulp(t): an adaptive run held at one h takes
+  // such steps. They count as one h (IncrementHistory::same_step, relative 1e-9).
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, cases::Top<double>> stepper(SimoKappa{}, ht1.scene);
+  auto traj = stepper.start(ht1.initial);
+  traj.time = 100.0;  // ulp(100) = 1.4e-14: the steps below differ by up to 1e-11 relative
+  for (int i = 0; i < 40; ++i) {
+    const double t_next = traj.time + 1e-3;
+    REQUIRE(stepper.step(traj, t_next - traj.time).ok());
+    traj.time = t_next;
+  }
+  CHECK(traj.memory.count == IncrementHistory<double>::depth);
+  CHECK(traj.memory.trusted(1e-3));
+  CHECK(traj.memory.miss < 1e-6);
+  CHECK(IncrementHistory<double>::same_step(1e-3 * (1 + 5e-10), 1e-3));
+  CHECK_FALSE(IncrementHistory<double>::same_step(1e-3 * (1 + 5e-9), 1e-3));
+}
+
 TEST_CASE("history predictor: a step from fresh memory is the memoryless step, bit for bit", "[predictor]") {
   const auto ht1 = cases::ht1<double>();
   const auto check = [&](auto scheme) {

@@ -17,6 +17,7 @@
 // used the history retries once without it before it reports failure.
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <limits>
 
 namespace trompo {
@@ -54,8 +55,17 @@ struct IncrementHistory {
     return z;
   }
 
+  /// Whether two step sizes count as one h (relative 1e-9): the steps t_{n+1} − t_n of a
+  /// run held at one h differ by the rounding of t (relative ulp(t)/h; an adaptive run's
+  /// steps are such differences), and an h off by δh/h shifts the extrapolation by as much,
+  /// far below the trust gate.
+  static bool same_step(Scalar a, Scalar b) {
+    using std::abs;
+    return a == b || abs(a - b) <= Scalar(1e-9) * abs(b);
+  }
+
   /// Whether a step of size `h_now` may extrapolate: the history is full and of that h.
-  bool ready(Scalar h_now) const { return count == depth && h == h_now; }
+  bool ready(Scalar h_now) const { return count == depth && same_step(h, h_now); }
 
   /// Whether a step of size `h_now` starts from the history (extrapolated increment and
   /// carried tangent): ready, and the extrapolation predicted the last step to `trust`.
@@ -83,7 +93,7 @@ struct IncrementHistory {
     } else {
       miss = std::numeric_limits<Scalar>::infinity();
     }
-    if (h_step != h) count = 0;
+    if (!same_step(h_step, h)) count = 0;
     for (int i = depth - 1; i > 0; --i) increment[static_cast<std::size_t>(i)] = increment[static_cast<std::size_t>(i - 1)];
     increment[0] = x;
     tangent_inverse = K_inv;

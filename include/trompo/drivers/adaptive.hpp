@@ -445,15 +445,21 @@ struct AdaptiveLoop {
 
   Scalar direction() const { return t_end >= traj.time ? Scalar(1) : Scalar(-1); }
 
-  /// The RMS error norm per unit step [A2] of the estimate (fine − coarse)/(2^p − 1).
+  /// x^n for n ≥ 0 by squarings.
+  static Scalar integer_power(Scalar x, int n) {
+    Scalar result(1);
+    for (; n > 0; n >>= 1, x *= x)
+      if (n & 1) result *= x;
+    return result;
+  }
+
+  /// r² of the error norm per unit step [A2] of the estimate (fine − coarse)/(2^p − 1).
   Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse, const State<Scalar>& fine,
                              Scalar h) const {
-    using std::abs;
-    using std::sqrt;
     const Scalar k = Scalar((1 << stepper.order()) - 1);  // 2^p − 1
     const Vector3 e_rot = (coarse.rotation.inverse() * fine.rotation).log() / k;
     const Vector3 e_om = (fine.omega - coarse.omega) / k;
-    return error_norm(e_rot, e_om, start.omega.norm(), fine.omega.norm(), h);
+    return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
   }
 
   /// |h| allowed by max_step and max_rotation at Ω.
@@ -462,6 +468,15 @@ struct AdaptiveLoop {
     Scalar cap = opt.max_step;
     if (w > 0) cap = std::min(cap, opt.max_rotation / w);
     return cap;
+  }
+  /// |h| (≥ 0) within h_cap(Ω), tested on squares: the square root and the division only
+  /// when the rotation cap binds (between steps they would wait on the step's end).
+  Scalar capped(Scalar h_abs, const Vector3& omega) const {
+    using std::sqrt;
+    h_abs = std::min(h_abs, opt.max_step);
+    const Scalar w2 = omega.squaredNorm();
+    if (h_abs * h_abs * w2 > opt.max_rotation * opt.max_rotation) h_abs = opt.max_rotation / sqrt(w2);
+    return h_abs;
   }
 
   /// The first step (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
@@ -565,25 +580,27 @@ struct AdaptiveLoop {
     }
   }
 
-  /// The RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of a step a → b:
+  /// The square r² of the RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of
+  /// a step a → b, given |Ω_a|² and |Ω_b|²:
   /// r = RMS(|e_ξ|/(s_Λ|h|/T + 8ε), |e_Ω|/(s_Ω|h|/T + 8ε|Ω|)), accepted when r ≤ 1. The
   /// 8ε terms are the estimate's round-off (measured ≤ 5ε and ≤ 2ε|Ω| on the standard
   /// cases): a step is never refused for its rounding, which does not shrink with h.
-  Scalar error_norm(const Vector3& e_rot, const Vector3& e_om, Scalar omega_a, Scalar omega_b, Scalar h) const {
+  /// Squared, so that no square root lies between the estimate and the controller.
+  Scalar error_norm_squared(const Vector3& e_rot, const Vector3& e_om, Scalar omega2_a, Scalar omega2_b,
+                            Scalar h) const {
     using std::abs;
     using std::sqrt;
     constexpr Scalar noise = Scalar(8) * std::numeric_limits<Scalar>::epsilon();
-    const Scalar w = std::max(omega_a, omega_b);
+    const Scalar w = sqrt(std::max(omega2_a, omega2_b));
     const Scalar per_step = abs(h) / span;  // error per unit step against tol/T
     const Scalar s_rot = (opt.atol + opt.rtol) * per_step + noise;
     const Scalar s_om = (opt.atol + opt.rtol * w) * per_step + noise * w;
-    const Scalar a = e_rot.norm() / s_rot, b = e_om.norm() / s_om;
-    return sqrt((a * a + b * b) / Scalar(2));
+    return (e_rot.squaredNorm() / (s_rot * s_rot) + e_om.squaredNorm() / (s_om * s_om)) / Scalar(2);
   }
 
   /// One attempt of size h ending at t_next: on success `next` holds the state the run
   /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/2}²(y) with doubling) and the
-  /// return value is the error per unit step; on failure the status is set, traj untouched.
+  /// return value is r², r the error per unit step; on failure the status is set, traj untouched.
   Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
     if (!use_defect) return attempt_doubling(h, next, status);
     // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
@@ -608,7 +625,7 @@ struct AdaptiveLoop {
     attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
     Vector3 e_rot, e_om;
     defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, defect_rule, e_rot, e_om);
-    return error_norm(e_rot, e_om, node_a.state.omega.norm(), end.omega.norm(), h);
+    return error_norm_squared(e_rot, e_om, node_a.state.omega.squaredNorm(), end.omega.squaredNorm(), h);
   }
 
   /// After a rejected attempt: the state before it (stepped in place), or nothing.
@@ -742,7 +759,7 @@ struct AdaptiveLoop {
     const Scalar dir = direction();
     const int p = stepper.order();
     Scalar h = dir * first_step();
-    Scalar r_prev = Scalar(1), h_prev = h;
+    Scalar r2_prev = Scalar(1), h_prev = h;
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
     use_defect = opt.estimate == ErrorEstimate::defect || (opt.estimate == ErrorEstimate::automatic && p <= 6);
@@ -754,7 +771,7 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::failed;
         return;
       }
-      h = dir * std::min(abs(h), h_cap(traj.omega));
+      h = dir * capped(abs(h), traj.omega);
       bool last = false;
       const Scalar h_clipped = clip(h, last);
       if (too_small(h_clipped) && !last) {
@@ -767,7 +784,7 @@ struct AdaptiveLoop {
       const Scalar t_next = last ? t_end : traj.time + h_clipped;
       const Scalar h_try = t_next - traj.time;
       StepStatus status = StepStatus::ok;
-      const Scalar r = attempt(h_try, t_next, next, status);
+      const Scalar r2 = attempt(h_try, t_next, next, status);  // r², r the error per unit step
       if (status != StepStatus::ok) {  // Newton failure: shorter step, nothing committed
         ++sum.failures;
         sum.failure = status;
@@ -779,10 +796,10 @@ struct AdaptiveLoop {
         }
         continue;
       }
-      if (!(r <= Scalar(1))) {  // rejected: the elementary controller, h shrinks
+      if (!(r2 <= Scalar(1))) {  // rejected: the elementary controller, h shrinks: (1/r)^{1/p}
         ++sum.rejected;
-        const Scalar f = std::isfinite(static_cast<double>(r))
-                             ? std::max(opt.min_factor, opt.safety * pow(r, -Scalar(1) / Scalar(p)))
+        const Scalar f = std::isfinite(static_cast<double>(r2))
+                             ? std::max(opt.min_factor, opt.safety * pow(r2, -Scalar(1) / Scalar(2 * p)))
                              : opt.min_factor;
         h = h_try * std::min(f, Scalar(0.9));
         growth_cap = Scalar(1);
@@ -790,18 +807,19 @@ struct AdaptiveLoop {
         continue;
       }
       // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
-      const Scalar rr = std::max(r, Scalar(1e-10));
+      // = h_n (r_n² r_{n−1}² ρ^{2p})^{−1/8p}, ρ = h_n/h_{n−1}: one pow, ρ^{2p} by squarings.
+      const Scalar rr2 = std::max(r2, Scalar(1e-20));
       Scalar f;
-      if (have_prev)  // one pow: (r_n r_{n−1})^{−1/4p}, and (h_n/h_{n−1})^{−1/4} by two square roots
-        f = opt.safety * pow(rr * r_prev, -Scalar(1) / Scalar(4 * p)) / sqrt(sqrt(h_try / h_prev));
+      if (have_prev)
+        f = opt.safety * pow(rr2 * r2_prev * integer_power(h_try / h_prev, 2 * p), -Scalar(1) / Scalar(8 * p));
       else
-        f = opt.safety * pow(rr, -Scalar(1) / Scalar(p));
+        f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
       growth_cap = opt.max_factor;
       ++sum.accepted;
       sum.h_last = h_try;
       if (!commit(next, t_next, use_defect, use_defect && in_place)) break;
-      r_prev = rr;
+      r2_prev = rr2;
       h_prev = h_try;
       have_prev = true;
       // after a shortened last step, keep the controller's h for a continuation

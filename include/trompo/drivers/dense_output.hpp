@@ -185,12 +185,11 @@ Eigen::Matrix<Scalar, 3, 1> apply_inverse_tangent(const Eigen::Matrix<Scalar, 3,
 }
 
 /// The derivative of T(x)⁻¹ w along v: d/ds [T(x + s v)⁻¹ w] at s = 0, with
-/// T⁻¹ = I + ½ x̂ + c(θ) x̂² ([D2]); c = c(|x|) given.
+/// T⁻¹ = I + ½ x̂ + c(θ) x̂² ([D2]); θ = |x| and c = c(θ) given.
 template <class Scalar>
 Eigen::Matrix<Scalar, 3, 1> inverse_tangent_derivative(const Eigen::Matrix<Scalar, 3, 1>& x,
                                                        const Eigen::Matrix<Scalar, 3, 1>& v,
-                                                       const Eigen::Matrix<Scalar, 3, 1>& w, Scalar c) {
-  const Scalar theta = x.norm();
+                                                       const Eigen::Matrix<Scalar, 3, 1>& w, Scalar theta, Scalar c) {
   const Scalar cp = inverse_tangent_coefficient_prime_over_theta(theta);  // c'(θ)/θ
   return v.cross(w) / Scalar(2) + cp * x.dot(v) * x.cross(x.cross(w)) +
          c * (v.cross(x.cross(w)) + x.cross(v.cross(w)));
@@ -215,14 +214,17 @@ class LieHermite {
     Vector3 phi = SO3<Scalar>::quaternion_log(q);
     // The branch of log nearest the mean rotation h(Ω_a + Ω_b)/2 when the step turns far [D1].
     const Vector3 guess = h * (a.state.omega + b.state.omega) / Scalar(2);
-    const Scalar angle = phi.norm();
+    Scalar angle = phi.norm();
     if (angle > Scalar(0)) {
       const Vector3 other = phi - (Scalar(2) * Scalar(EIGEN_PI) / angle) * phi;
-      if ((other - guess).squaredNorm() < (phi - guess).squaredNorm()) phi = other;
+      if ((other - guess).squaredNorm() < (phi - guess).squaredNorm()) {
+        phi = other;
+        angle = phi.norm();
+      }
     }
     xi1_ = phi;
     d0_ = h * a.state.omega;                                                   // ξ'(0) = hΩ_a
-    const Scalar c = detail::inverse_tangent_coefficient(phi.norm());
+    const Scalar c = detail::inverse_tangent_coefficient(angle);
     d1_ = h * detail::apply_inverse_tangent(phi, c, b.state.omega);               // ξ'(1) = h T(φ)⁻¹Ω_b
     w0_ = a.state.omega;
     w1_ = b.state.omega;
@@ -231,7 +233,7 @@ class LieHermite {
     if (quintic) {  // the second derivatives (the cubic has none: b2 = b3 = 0)
       eigen_assert(a.second && b.second && "LieHermite: the quintic needs nodes with omega_ddot (dense_node)");
       s0_ = h * h * a.omega_dot;                                                    // ξ''(0) = h²Ω̇_a
-      s1_ = h * detail::inverse_tangent_derivative(phi, d1_, b.state.omega, c) +   // ξ''(1)
+      s1_ = h * detail::inverse_tangent_derivative(phi, d1_, b.state.omega, angle, c) +  // ξ''(1)
             h * h * detail::apply_inverse_tangent(phi, c, b.omega_dot);
       wdd0_ = h * h * a.omega_ddot;
       wdd1_ = h * h * b.omega_ddot;

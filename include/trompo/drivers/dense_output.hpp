@@ -324,7 +324,7 @@ enum class DefectRule {
   simpson,
   /// Simpson's nodes with the rates' derivatives at the ends (Hermite's rule, exact for
   /// degree 5, error h⁷g⁽⁶⁾/604800): one interior evaluation, error O(h⁷), for orders 4 and 6
-  /// on the quintic (the end derivatives are the quintic's ξ'' and hΩ̈).
+  /// on the quintic (the end derivatives, in t: Ω̇_n and ξ''(1)/h² of the quintic, and Ω̈).
   hermite,
   /// Lobatto's 4 points (two interior evaluations), error O(h⁷) (h⁷g⁽⁶⁾/1512000): the
   /// reference Hermite's rule is tested against (tests/test_adaptive.cpp).

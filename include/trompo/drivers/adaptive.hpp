@@ -462,15 +462,9 @@ struct AdaptiveLoop {
     return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
   }
 
-  /// |h| allowed by max_step and max_rotation at Ω.
-  Scalar h_cap(const Vector3& omega) const {
-    const Scalar w = omega.norm();
-    Scalar cap = opt.max_step;
-    if (w > 0) cap = std::min(cap, opt.max_rotation / w);
-    return cap;
-  }
-  /// |h| (≥ 0) within h_cap(Ω), tested on squares: the square root and the division only
-  /// when the rotation cap binds (between steps they would wait on the step's end).
+  /// |h| (≥ 0) within max_step and the rotation cap |h||Ω| ≤ max_rotation, tested on
+  /// squares: the square root and the division only when the rotation cap binds (between
+  /// steps they would wait on the step's end).
   Scalar capped(Scalar h_abs, const Vector3& omega) const {
     using std::sqrt;
     h_abs = std::min(h_abs, opt.max_step);
@@ -483,7 +477,7 @@ struct AdaptiveLoop {
   Scalar first_step() const {
     using std::pow;
     using std::sqrt;
-    if (opt.first_step > 0) return std::min(opt.first_step, h_cap(traj.omega));
+    if (opt.first_step > 0) return capped(opt.first_step, traj.omega);
     const auto& scene = stepper.scene();
     const State<Scalar>& y0 = traj;
     const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
@@ -492,7 +486,7 @@ struct AdaptiveLoop {
     const Scalar d0 = rms(Scalar(1) / s_rot, w0.norm() / s_om);
     const Scalar d1 = rms(w0.norm() / s_rot, wd0.norm() / s_om);
     Scalar h0 = (d0 < Scalar(1e-5) || d1 < Scalar(1e-5)) ? Scalar(1e-6) : Scalar(0.01) * d0 / d1;
-    h0 = std::min(h0, h_cap(w0));
+    h0 = capped(h0, w0);
     State<Scalar> y1 = y0;  // explicit Euler
     y1.rotation = y0.rotation * SO3<Scalar>::exp(direction() * h0 * w0);
     y1.omega = w0 + direction() * h0 * wd0;
@@ -503,7 +497,7 @@ struct AdaptiveLoop {
     const Scalar dm = std::max(d1, d2);
     const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
                                           : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
-    return std::min({Scalar(100) * h0, h1, h_cap(w0)});
+    return capped(std::min(Scalar(100) * h0, h1), w0);
   }
 
   /// The observer: observer(a, b), or observer(a, b, summary) for one that wants the counts.

@@ -80,19 +80,27 @@ template <class Scene>
 inline constexpr bool potential_only =
     Scene::has_potential && !Scene::has_applied_torque && !Scene::has_time_dependent_potential;
 
-/// Ω̈ of a node with Ω̇ under time-independent potentials alone, from the caches at the
-/// node's Λ and the body torque τ there [D3]: τ_body = Rᵀτ_n(R) at R = exp(tΩ̂), so
-/// τ̇_body = K Ω − Ω × τ (τ_n's rate, the frame turning).
+/// Ω̈ = J⁻¹(JΩ̇ × Ω + Π × Ω̇ + τ̇) of a node with Ω̇, the time derivative of the Euler
+/// equation [D3], given the rate τ̇ of the body torque (node.second afterwards).
 template <class Scene>
-void second_rate_of_potential(const Scene& scene, const typename Scene::Caches& c,
-                              const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque,
-                              DenseNode<typename Scene::Scalar>& n) {
+void set_second_rate(const Scene& scene, const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque_rate,
+                     DenseNode<typename Scene::Scalar>& n) {
   using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
   const State<typename Scene::Scalar>& s = n.state;
   Vector3 rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
-  rhs += scene.conservative_torque_rate(c, s.omega) - s.omega.cross(torque);
+  rhs += torque_rate;
   n.omega_ddot = scene.body().inertia_inverse() * rhs;
   n.second = true;
+}
+
+/// τ̇ of the body torque τ under time-independent potentials alone, from the caches at the
+/// node's Λ [D3]: τ_body = Rᵀτ_n(R) at R = exp(tΩ̂), so τ̇_body = K Ω − Ω × τ (τ_n's rate,
+/// the frame turning).
+template <class Scene>
+Eigen::Matrix<typename Scene::Scalar, 3, 1> potential_torque_rate(const Scene& scene, const typename Scene::Caches& c,
+                                                                  const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque,
+                                                                  const Eigen::Matrix<typename Scene::Scalar, 3, 1>& omega) {
+  return scene.conservative_torque_rate(c, omega) - omega.cross(torque);
 }
 }  // namespace detail
 
@@ -114,24 +122,22 @@ void add_second_rate(const Scene& scene, DenseNode<typename Scene::Scalar>& n) {
   const State<Scalar>& s = n.state;
   if constexpr (detail::potential_only<Scene>) {
     const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
-    detail::second_rate_of_potential(scene, c, scene.conservative_torque(c, Matrix3::Identity()), n);
-    return;
+    const Vector3 torque = scene.conservative_torque(c, Matrix3::Identity());
+    detail::set_second_rate(scene, detail::potential_torque_rate(scene, c, torque, s.omega), n);
+  } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
+    using std::sqrt;
+    const Matrix3 R = s.rotation.matrix();
+    const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
+    const Scalar delta = Scalar(6e-6) / rate;
+    const Matrix3 dR = delta * (R * SO3<Scalar>::hat(s.omega));
+    const Vector3 dW = delta * n.omega_dot;
+    // τ is in the body frame, which turns with Ω: τ̇_body = (τ(+δ) − τ(−δ))/2δ.
+    const Vector3 torque_rate = (scene.body_torque(R + dR, s.omega + dW, s.time + delta) -
+                                 scene.body_torque(R - dR, s.omega - dW, s.time - delta)) /
+                                (Scalar(2) * delta);
+    detail::set_second_rate(scene, torque_rate, n);
   } else {
-    Vector3 rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
-    if constexpr (Scene::has_potential || Scene::has_applied_torque) {
-      using std::sqrt;
-      const Matrix3 R = s.rotation.matrix();
-      const Scalar rate = Scalar(1) + s.omega.norm() + sqrt(n.omega_dot.norm());
-      const Scalar delta = Scalar(6e-6) / rate;
-      const Matrix3 dR = delta * (R * SO3<Scalar>::hat(s.omega));
-      const Vector3 dW = delta * n.omega_dot;
-      // τ is in the body frame, which turns with Ω: τ̇_body = (τ(+δ) − τ(−δ))/2δ.
-      rhs += (scene.body_torque(R + dR, s.omega + dW, s.time + delta) -
-              scene.body_torque(R - dR, s.omega - dW, s.time - delta)) /
-             (Scalar(2) * delta);
-    }
-    n.omega_ddot = scene.body().inertia_inverse() * rhs;
-    n.second = true;
+    detail::set_second_rate(scene, Vector3::Zero().eval(), n);  // no torque
   }
 }
 
@@ -148,7 +154,7 @@ DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typ
     const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
     const Eigen::Matrix<typename Scene::Scalar, 3, 1> torque = scene.conservative_torque(c, Matrix3::Identity());
     n.omega_dot = euler_rate(scene, s.omega, torque);
-    if (second) detail::second_rate_of_potential(scene, c, torque, n);
+    if (second) detail::set_second_rate(scene, detail::potential_torque_rate(scene, c, torque, s.omega), n);
   } else {
     n.omega_dot = omega_rate(scene, s);
     if (second) add_second_rate(scene, n);

@@ -65,6 +65,51 @@ struct GaussLegendre<Scalar, 7> {
                                   Scalar(0.279705391489276667901467771423779582L),
                                   Scalar(0.129484966168869693270611432679082018L)};
 };
+
+/// q ← q ⊗ (c, sn e_K): right product with a rotation about principal axis K, written out.
+template <int K, class Scalar>
+inline void multiply_axis(Eigen::Quaternion<Scalar>& q, Scalar c, Scalar sn) {
+  const Scalar w = q.w(), x = q.x(), y = q.y(), z = q.z();
+  if constexpr (K == 0) {
+    q.w() = w * c - x * sn, q.x() = x * c + w * sn, q.y() = y * c + z * sn, q.z() = z * c - y * sn;
+  } else if constexpr (K == 1) {
+    q.w() = w * c - y * sn, q.x() = x * c - z * sn, q.y() = y * c + w * sn, q.z() = z * c + x * sn;
+  } else {
+    q.w() = w * c - z * sn, q.x() = x * c + y * sn, q.y() = y * c - x * sn, q.z() = z * c + w * sn;
+  }
+}
+
+/// Π ← exp(−φ ê_K) Π given c = cos(φ/2), sn = sin(φ/2), in increment form [S5]:
+/// x' = x + ((cos φ − 1) x + sin φ y) with cos φ − 1 = −2 sin²(φ/2). The direct form
+/// cos φ·x + sin φ·y rounds cos φ ≈ 1 the same way on every step when the angle repeats
+/// (HT0/HT1: Π_s and h constant), a systematic scale error growing like N·ε.
+template <int K, class Vector3, class Scalar>
+inline void rotate_back_axis(Vector3& P, Scalar c, Scalar sn) {
+  constexpr int i1 = (K + 1) % 3, i2 = (K + 2) % 3;
+  const Scalar cm1 = Scalar(-2) * sn * sn, s2 = Scalar(2) * sn * c;
+  const Scalar x = P(i1), y = P(i2);
+  P(i1) = x + (cm1 * x + s2 * y);
+  P(i2) = y + (cm1 * y - s2 * x);
+}
+
+/// [S2] the exact free flow of a body symmetric about principal axis K for a time t,
+/// T = ½|Π|²/J_a + ½ c Π_K² with c = 1/J_K − 1/J_a:
+///   Λ ← Λ exp(t Π̂/J_a) exp(t ν ê_K),  Π ← exp(−t ν ê_K) Π,  ν = c Π_K.
+/// The splittings' symmetric sub-flow (axis 3 of their working frame) and EulerPoinsot's
+/// symmetric branch [F7].
+template <int K, class Scalar, class Vector3>
+inline void symmetric_free_flow(Eigen::Quaternion<Scalar>& q, Vector3& Pi, Scalar t, Scalar Ja_inv, Scalar c) {
+  const Scalar pn = Pi.norm();
+  const Scalar half = Scalar(0.5) * t * Ja_inv * pn;
+  Scalar sh, ch, sp, cp;
+  sin_cos(half, sh, ch);
+  const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);  // Π = 0: no rotation
+  q = q * Eigen::Quaternion<Scalar>(ch, k * Pi.x(), k * Pi.y(), k * Pi.z());
+  const Scalar phi_half = Scalar(0.5) * t * c * Pi(K);
+  sin_cos(phi_half, sp, cp);
+  multiply_axis<K>(q, cp, sp);
+  rotate_back_axis<K>(Pi, cp, sp);
+}
 }  // namespace detail
 
 /// The exact free rotation of a rigid body with principal moments J (in the frame where Π is
@@ -378,25 +423,11 @@ class EulerPoinsot {
     q = q * (r * pa);
   }
 
-  // [S2] the symmetric free flow about axis s: Λ ← Λ exp(t Π̂/J_a) exp(t ν ê_s),
-  // Π ← exp(−t ν ê_s) Π, ν = (1/J_s − 1/J_a) Π_s (rotation of Π in increment form).
+  // [S2] the symmetric free flow about axis s (detail::symmetric_free_flow).
   void advance_symmetric(Quaternion& q, Vector3& Pi, Scalar t) const {
-    const Scalar pn = Pi.norm();
-    const Scalar half = Scalar(0.5) * t * Ja_inv_ * pn;
-    Scalar sh, ch, sp, cp;
-    detail::sin_cos(half, sh, ch);
-    const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);
-    q = q * Quaternion(ch, k * Pi.x(), k * Pi.y(), k * Pi.z());
-    const Scalar phi_half = Scalar(0.5) * t * c_s_ * Pi(s_axis_);
-    detail::sin_cos(phi_half, sp, cp);
-    Vector3 axis_v = Vector3::Zero();
-    axis_v(s_axis_) = sp;
-    q = q * Quaternion(cp, axis_v.x(), axis_v.y(), axis_v.z());
-    const int i1 = s_axis_ == 0 ? 1 : s_axis_ == 1 ? 2 : 0, i2 = s_axis_ == 0 ? 2 : s_axis_ == 1 ? 0 : 1;
-    const Scalar cm1 = Scalar(-2) * sp * sp, s2 = Scalar(2) * sp * cp;
-    const Scalar x = Pi(i1), y = Pi(i2);
-    Pi(i1) = x + (cm1 * x + s2 * y);
-    Pi(i2) = y + (cm1 * y - s2 * x);
+    if (s_axis_ == 0) detail::symmetric_free_flow<0>(q, Pi, t, Ja_inv_, c_s_);
+    else if (s_axis_ == 1) detail::symmetric_free_flow<1>(q, Pi, t, Ja_inv_, c_s_);
+    else detail::symmetric_free_flow<2>(q, Pi, t, Ja_inv_, c_s_);
   }
 
   Vector3 J_;

@@ -134,17 +134,23 @@ struct HalfAngle {
   /// the Newton chain of the Simo residual, whose midpoint torque needs it); above it,
   /// κ²/(1 + cos(θ/2)), with 1 + cos(θ/2) > 0 for |θ| < 2π.
   Scalar b_half;
+  bool series;  ///< whether θ/2 was below the switch (the series were used)
   Scalar sinc() const { return kappa * cos_half; }                    ///< sin θ / θ
   Scalar one_minus_cos_over_sq() const { return kappa * kappa / 2; }  ///< (1 − cos θ)/θ²
   /// (1 − cos(θ/2))/(θ/2)², the b coefficient of exp(Θ̂/2) (b_half).
   Scalar half_one_minus_cos_over_sq() const { return b_half; }
+  /// cos(θ/2) − 1 given x = (θ/2)², without cancellation: −x·b_half where the series were
+  /// used (the difference would cancel), the difference above the switch (exact for
+  /// θ ≤ 2π/3; b_half's closed form cancels near θ = 2π).
+  Scalar cos_half_minus_one(Scalar x) const { return series ? -x * b_half : cos_half - Scalar(1); }
 };
 
 template <class Scalar>
 HalfAngle<Scalar> half_angle_series(Scalar x) {  // x = (θ/2)², below the switch
   return {polynomial(x, sinc_series),
           polynomial(x, cos_series),
-          polynomial(x, one_minus_cos_over_sq_series)};
+          polynomial(x, one_minus_cos_over_sq_series),
+          true};
 }
 
 template <class Scalar>
@@ -154,7 +160,7 @@ HalfAngle<Scalar> half_angle(Scalar theta) {
   const Scalar y = theta / 2;
   if (std::abs(y) < small_angle<Scalar>::theta) return half_angle_series(y * y);
   const Scalar k = sin(y) / y, c = cos(y);
-  return {k, c, k * k / (Scalar(1) + c)};
+  return {k, c, k * k / (Scalar(1) + c), false};
 }
 
 /// half_angle(θ) from θ² = |Θ|²: below the switch the series need only θ², so no square

@@ -96,15 +96,11 @@ class SO3 {
   /// that its rounding is that of the small increment. Formed directly, the rounding of
   /// q·cos(θ/2) (cos(θ/2) within θ²/8 of 1) leaned to one side and moved μ by a fixed
   /// fraction of ε every step: Simo-κ on HT0 at h = 1.16e-5, 8.6·10⁵ steps, drifted μ by
-  /// 6.3e-13 that way, at most 5.6e-14 (a random walk) in increments. cos(θ/2) − 1 is
-  /// −(θ/2)² b_half below the series switch (θ < ½), where the difference would cancel, and
-  /// the difference above it (exact for θ ≤ 2π/3; b_half's own closed form cancels near 2π).
+  /// 6.3e-13 that way, at most 5.6e-14 (a random walk) in increments (cos(θ/2) − 1 from
+  /// HalfAngle::cos_half_minus_one, without cancellation).
   SO3 times_exp(const Vector3& x, const detail::HalfAngle<Scalar>& c) const {
     const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
-    const Scalar quarter_sq = x.squaredNorm() / 4;  // (θ/2)²
-    const Scalar cos_half_minus_1 = quarter_sq < detail::small_angle<Scalar>::theta * detail::small_angle<Scalar>::theta
-                                        ? -quarter_sq * c.b_half
-                                        : c.cos_half - Scalar(1);
+    const Scalar cos_half_minus_1 = c.cos_half_minus_one(x.squaredNorm() / 4);  // x = (θ/2)²
     const Quaternion increment = q_ * Quaternion(cos_half_minus_1, v.x(), v.y(), v.z());
     Quaternion q;
     q.coeffs() = q_.coeffs() + increment.coeffs();

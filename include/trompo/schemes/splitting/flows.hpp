@@ -206,32 +206,6 @@ struct SplittingMemory {
   Scalar energy = Scalar(0);       ///< H of the trajectory's first state (projection [S12])
 };
 
-/// q ← q ⊗ (c, sn e_K): right product with a rotation about working axis K, written out.
-template <int K, class Scalar>
-inline void multiply_axis(Eigen::Quaternion<Scalar>& q, Scalar c, Scalar sn) {
-  const Scalar w = q.w(), x = q.x(), y = q.y(), z = q.z();
-  if constexpr (K == 0) {
-    q.w() = w * c - x * sn, q.x() = x * c + w * sn, q.y() = y * c + z * sn, q.z() = z * c - y * sn;
-  } else if constexpr (K == 1) {
-    q.w() = w * c - y * sn, q.x() = x * c - z * sn, q.y() = y * c + w * sn, q.z() = z * c + x * sn;
-  } else {
-    q.w() = w * c - z * sn, q.x() = x * c + y * sn, q.y() = y * c - x * sn, q.z() = z * c + w * sn;
-  }
-}
-
-/// Π ← exp(−φ ê_K) Π given c = cos(φ/2), sn = sin(φ/2), in increment form [S5]:
-/// x' = x + ((cos φ − 1) x + sin φ y) with cos φ − 1 = −2 sin²(φ/2). The direct form
-/// cos φ·x + sin φ·y rounds cos φ ≈ 1 the same way on every step when the angle repeats
-/// (HT0/HT1: Π_s and h constant), a systematic scale error growing like N·ε.
-template <int K, class Vector3, class Scalar>
-inline void rotate_back_axis(Vector3& P, Scalar c, Scalar sn) {
-  constexpr int i1 = (K + 1) % 3, i2 = (K + 2) % 3;
-  const Scalar cm1 = Scalar(-2) * sn * sn, s2 = Scalar(2) * sn * c;
-  const Scalar x = P(i1), y = P(i2);
-  P(i1) = x + (cm1 * x + s2 * y);
-  P(i2) = y + (cm1 * y - s2 * x);
-}
-
 /// The working state of a splitting step: Λ_w as a quaternion (not renormalised between
 /// sub-flows: each factor is unit to round-off), Π_w and the split clock t.
 template <class Scalar>
@@ -242,21 +216,11 @@ struct SplitState {
   Scalar t;
 };
 
-/// [S2] the exact flow of T_sym = ½|Π|²/J_a + ½ c_s Π_s² for a time t:
-///   Λ ← Λ exp(t Π̂/J_a) exp(t ν ê_s),  Π ← exp(−t ν ê_s) Π,  ν = c_s Π_s.
-/// The split clock advances here (time is a split variable, [S13]).
+/// [S2] the exact flow of T_sym = ½|Π|²/J_a + ½ c_s Π_s² for a time t (working axis s = 3,
+/// detail::symmetric_free_flow). The split clock advances here (time is a split variable, [S13]).
 template <class Scalar>
 inline void flow_symmetric(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
-  const Scalar pn = x.P.norm();
-  const Scalar half = Scalar(0.5) * t * f.Ja_inv * pn;
-  Scalar sh, ch, sp, cp;
-  sin_cos(half, sh, ch);
-  const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);  // Π = 0: no rotation
-  x.q = x.q * Eigen::Quaternion<Scalar>(ch, k * x.P.x(), k * x.P.y(), k * x.P.z());
-  const Scalar phi_half = Scalar(0.5) * t * f.c_s * x.P.z();
-  sin_cos(phi_half, sp, cp);
-  multiply_axis<2>(x.q, cp, sp);
-  rotate_back_axis<2>(x.P, cp, sp);
+  symmetric_free_flow<2>(x.q, x.P, t, f.Ja_inv, f.c_s);
   x.t += t;
 }
 

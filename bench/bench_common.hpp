@@ -517,6 +517,70 @@ void register_step(const Problem<SceneT>& p, Scheme scheme, Method order) {
   });
 }
 
+/// step-pair/<case>/<method>: a composition's sub-step against its base step, the two timed
+/// in alternation. Each iteration runs `pair_steps` steps of the base scheme (a trajectory,
+/// as step/<case>/<scheme>) and then as many steps of the composed stepper that `make(scene)`
+/// returns, over the same span, so that the two see the same machine load: measured in two
+/// benchmarks minutes apart, the ratio moved by 40 % with the load. Counters: base_ns per base
+/// step and substep_ns per sub-step (the runs' sums), ratio the median over the iterations
+/// of substep_ns / base_ns (each iteration's own pair). The benchmark's time is the composed
+/// runs' (manual time).
+inline constexpr int pair_steps = 1000;
+
+template <class Scheme, class SceneT, class MakeStepper>
+void register_step_pair(const Problem<SceneT>& p, const std::string& method, Scheme scheme, MakeStepper make) {
+  const std::string name = "step-pair/" + std::string(p.c.name) + "/" + method;
+  benchmark::RegisterBenchmark(name.c_str(), [&p, method, scheme, make](benchmark::State& st) {
+    using clock = std::chrono::steady_clock;
+    const Stepper<Scheme, SceneT> base(scheme, p.c.scene);
+    const auto composed = make(p.c.scene);
+    const double h = p.h_step, t_end = p.c.initial.time + pair_steps * h;
+    const int stages = stages_of(composed);
+    double base_s = 0, composed_s = 0;
+    std::vector<double> ratios;
+    ratios.reserve(4096);
+    for (auto _ : st) {
+      const auto t0 = clock::now();
+      auto b = start_of(base, p.c.initial);
+      const IntegrationSummary<double> sb = integrate(base, b, t_end, h, NoObserver{}, no_recovery);
+      benchmark::DoNotOptimize(b);
+      const auto t1 = clock::now();
+      auto c = start_of(composed, p.c.initial);
+      const IntegrationSummary<double> sc = integrate(composed, c, t_end, h, NoObserver{}, no_recovery);
+      benchmark::DoNotOptimize(c);
+      const auto t2 = clock::now();
+      if (!sb.ok() || !sc.ok()) {
+        st.SkipWithError("a run of the pair failed");
+        return;
+      }
+      const double tb = std::chrono::duration<double>(t1 - t0).count(), tc = std::chrono::duration<double>(t2 - t1).count();
+      base_s += tb;
+      composed_s += tc;
+      if (ratios.size() < ratios.capacity()) ratios.push_back(tc / (tb * stages));
+      st.SetIterationTime(tc);
+    }
+    const double runs = double(st.iterations());
+    std::sort(ratios.begin(), ratios.end());
+    const std::size_t m = ratios.size();
+    st.counters["substeps"] = stages;
+    st.counters["h"] = h;
+    st.counters["pairs"] = double(m);
+    st.counters["base_ns"] = 1e9 * base_s / (runs * pair_steps);
+    st.counters["substep_ns"] = 1e9 * composed_s / (runs * pair_steps * stages);
+    st.counters["ratio"] = m == 0 ? 0.0 : (m % 2 ? ratios[m / 2] : 0.5 * (ratios[m / 2 - 1] + ratios[m / 2]));
+    st.SetLabel(label_of(p.c.name, method, Scheme::name, composed.order(), h, 0, stages));
+  })->MinTime(step_min_time)->Repetitions(step_repetitions)->UseManualTime()->Unit(benchmark::kMicrosecond);
+}
+
+/// The pairs of the report's target "composed sub-step ≤ 1.05× base step" (docs/predictor.md):
+/// Suzuki-5, Kahan–Li-9 and, for Simo-κ, Kahan–Li-17, each against its base step, on `p`.
+template <class Scheme, class SceneT>
+void register_composition_pairs(const Problem<SceneT>& p, Scheme scheme, std::initializer_list<Composition> ms) {
+  for (Composition m : ms)
+    register_step_pair(p, method_name(Scheme::name, m), scheme,
+                       [scheme, m](const SceneT& scene) { return ComposedStepper<Scheme, SceneT>(scheme, scene, m); });
+}
+
 // ---- families of methods from other files ----------------------------------------------------
 
 /// A family of methods that another translation unit of trompo-bench (bench/methods/*.cpp)

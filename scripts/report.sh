@@ -40,7 +40,7 @@ progress() {
   while IFS= read -r line; do
     printf '%s\n' "$line" >&3
     name=${line%% *}
-    case $name in step/* | sweep/*) ;; *) continue ;; esac
+    case $name in step/* | step-pair/* | step-adaptive/* | sweep/*) ;; *) continue ;; esac
     for suffix in _mean _median _stddev _cv; do name=${name%"$suffix"}; done
     [ "$name" = "$last" ] && continue
     last=$name
@@ -56,7 +56,7 @@ mkdir -p "$out"
 lscpu >"$out/machine.txt" 2>/dev/null || true
 start=$(date +%s)
 start_s=$SECONDS
-total=$("$build/bench/trompo-bench" --benchmark_list_tests "$@" | grep -c -E '^(step|sweep)/' || true)
+total=$("$build/bench/trompo-bench" --benchmark_list_tests "$@" | grep -c -E '^(step|step-pair|step-adaptive|sweep)/' || true)
 echo "== trompo-bench: per-step costs and the Δt sweep ($total benchmarks) -> $out/bench.json"
 "$build/bench/trompo-bench" --benchmark_out="$out/bench.json" --benchmark_out_format=json \
   --benchmark_counters_tabular=false "$@" | progress "$out/bench_console.txt" "$total"

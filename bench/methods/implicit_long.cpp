@@ -10,7 +10,8 @@
 // A few grid points per method suffice: the rows that matter are the cheapest ones that
 // reach the joint bound (‖ΔΛ‖ ≤ 1e-6 and max |ΔH/H| ≤ 1e-12) or an attitude bound.
 // Also here: the order-8 compositions (Kahan–Li, 17 steps) and the processed order-6 method
-// (Blanes–Casas–Murua) on the t = 10 cases, and their steps on HT1.
+// (Blanes–Casas–Murua) on the t = 10 cases, and their steps on HT1; and step-pair/ht1/…,
+// each composed sub-step against its base step timed in alternation (bench_common.hpp).
 #include "bench_common.hpp"
 
 #ifndef TROMPO_IMPLICIT_LONG_EXPLICIT
@@ -84,6 +85,16 @@ void register_steps_all() {
     register_step(tops[1], SimoKappa{}, Composition::kahan_li17);
     register_processed_step(tops[1], SimoKappa{});
     register_processed_step(tops[1], GeradinBauchau{});
+    // the same sub-steps against their base steps, timed in alternation
+    register_composition_pairs(tops[1], SimoKappa{},
+                               {Composition::suzuki5, Composition::kahan_li9, Composition::kahan_li17});
+    register_composition_pairs(tops[1], GeradinBauchau{}, {Composition::suzuki5, Composition::kahan_li9});
+    register_step_pair(tops[1], std::string(SimoKappa::name) + "-p6", SimoKappa{}, [](const Top& scene) {
+      return ProcessedStepper<SimoKappa, Top>(SimoKappa{}, scene);
+    });
+    register_step_pair(tops[1], std::string(GeradinBauchau::name) + "-p6", GeradinBauchau{}, [](const Top& scene) {
+      return ProcessedStepper<GeradinBauchau, Top>(GeradinBauchau{}, scene);
+    });
   }
 }
 

@@ -36,7 +36,7 @@ def parse_label(label):
 def load(report_dir):
     with open(os.path.join(report_dir, "bench.json")) as f:
         data = json.load(f)
-    sweep, steps = [], {}
+    sweep, steps, pairs = [], {}, {}
     for b in data["benchmarks"]:
         name = b["name"]
         lab = parse_label(b.get("label", ""))
@@ -78,12 +78,31 @@ def load(report_dir):
                                    "substeps": b.get("substeps", 1)})
             steps[key]["cpu"].append(b["cpu_time"] * unit)
             steps[key]["newton"].append(b.get("newton", 0.0))
+        elif name.startswith("step-pair/"):
+            # A composed sub-step against its base step, timed in alternation (bench_common.hpp).
+            if b.get("run_type") == "aggregate" or b.get("error_occurred"):
+                continue
+            pairs.setdefault((lab.get("case"), lab.get("method")), []).append(b)
     for s in steps.values():
         c = sorted(s["cpu"])
         s["ns"] = c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
         s["ns_min"], s["ns_max"] = c[0], c[-1]
         s["newton_mean"] = sum(s["newton"]) / len(s["newton"])
+    # the pairs go with the composed method's step row: "pair" = medians over the repetitions
+    for key, reps in pairs.items():
+        if key in steps:
+            ratios = sorted(r["ratio"] for r in reps)
+            steps[key]["pair"] = {
+                "ratio": _median(ratios), "ratio_min": ratios[0], "ratio_max": ratios[-1],
+                "base_ns": _median(sorted(r["base_ns"] for r in reps)),
+                "substep_ns": _median(sorted(r["substep_ns"] for r in reps)),
+                "repetitions": len(reps),
+            }
     return data.get("context", {}), sweep, steps
+
+
+def _median(c):
+    return c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
 
 
 def fmt(x, digits=2):

@@ -24,6 +24,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "trompo/drivers/integrate.hpp"
@@ -517,60 +518,105 @@ void register_step(const Problem<SceneT>& p, Scheme scheme, Method order) {
   });
 }
 
-/// step-pair/<case>/<method>: a composition's sub-step against its base step, the two timed
-/// in alternation. Each iteration runs `pair_steps` steps of the base scheme (a trajectory,
-/// as step/<case>/<scheme>) and then as many steps of the composed stepper that `make(scene)`
-/// returns, over the same span, so that the two see the same machine load: measured in two
-/// benchmarks minutes apart, the ratio moved by 40 % with the load. Counters: base_ns per base
-/// step and substep_ns per sub-step (the runs' sums), ratio the median over the iterations
-/// of substep_ns / base_ns (each iteration's own pair). The benchmark's time is the composed
-/// runs' (manual time).
+/// step-pair/<case>/<method>/vs:<baseline>: a method's step (or sub-step) against a
+/// baseline's step, the two timed in alternation. `setup(p)` returns {run_baseline,
+/// run_method, stages, order}: each run takes `pair_steps` steps from the case's first state
+/// (false: it failed), and the method's time is divided by `stages` (its base steps per step:
+/// a composition's sub-step against its base step; 1 against another scheme's step). Each
+/// iteration runs the baseline and then the method, so that the two see the same machine
+/// load: measured in two benchmarks minutes apart, such a ratio moved by 40 % with the load
+/// (MJ10: 1.42–1.43× for the Simo-κ compositions, whose instruction count says 1.03×).
+/// Counters: baseline_ns per baseline step, method_ns per (sub-)step (the runs' sums), ratio
+/// the median over the iterations of each pair's method_ns / baseline_ns. The benchmark's
+/// time is the method's runs' (manual time).
 inline constexpr int pair_steps = 1000;
 
-template <class Scheme, class SceneT, class MakeStepper>
-void register_step_pair(const Problem<SceneT>& p, const std::string& method, Scheme scheme, MakeStepper make) {
-  const std::string name = "step-pair/" + std::string(p.c.name) + "/" + method;
-  benchmark::RegisterBenchmark(name.c_str(), [&p, method, scheme, make](benchmark::State& st) {
+template <class SceneT, class Setup>
+void register_timed_pair(const Problem<SceneT>& p, const std::string& method, const std::string& baseline,
+                         const std::string& scheme, Setup setup) {
+  const std::string name = "step-pair/" + std::string(p.c.name) + "/" + method + "/vs:" + baseline;
+  benchmark::RegisterBenchmark(name.c_str(), [&p, method, baseline, scheme, setup](benchmark::State& st) {
     using clock = std::chrono::steady_clock;
-    const Stepper<Scheme, SceneT> base(scheme, p.c.scene);
-    const auto composed = make(p.c.scene);
-    const double h = p.h_step, t_end = p.c.initial.time + pair_steps * h;
-    const int stages = stages_of(composed);
-    double base_s = 0, composed_s = 0;
+    auto [run_baseline, run_method, stages, order] = setup(p);
+    double baseline_s = 0, method_s = 0;
     std::vector<double> ratios;
     ratios.reserve(4096);
     for (auto _ : st) {
       const auto t0 = clock::now();
-      auto b = start_of(base, p.c.initial);
-      const IntegrationSummary<double> sb = integrate(base, b, t_end, h, NoObserver{}, no_recovery);
-      benchmark::DoNotOptimize(b);
+      const bool ok_baseline = run_baseline();
       const auto t1 = clock::now();
-      auto c = start_of(composed, p.c.initial);
-      const IntegrationSummary<double> sc = integrate(composed, c, t_end, h, NoObserver{}, no_recovery);
-      benchmark::DoNotOptimize(c);
+      const bool ok_method = run_method();
       const auto t2 = clock::now();
-      if (!sb.ok() || !sc.ok()) {
+      if (!ok_baseline || !ok_method) {
         st.SkipWithError("a run of the pair failed");
         return;
       }
-      const double tb = std::chrono::duration<double>(t1 - t0).count(), tc = std::chrono::duration<double>(t2 - t1).count();
-      base_s += tb;
-      composed_s += tc;
-      if (ratios.size() < ratios.capacity()) ratios.push_back(tc / (tb * stages));
-      st.SetIterationTime(tc);
+      const double tb = std::chrono::duration<double>(t1 - t0).count(), tm = std::chrono::duration<double>(t2 - t1).count();
+      baseline_s += tb;
+      method_s += tm;
+      if (ratios.size() < ratios.capacity()) ratios.push_back(tm / (tb * stages));
+      st.SetIterationTime(tm);
     }
     const double runs = double(st.iterations());
     std::sort(ratios.begin(), ratios.end());
     const std::size_t m = ratios.size();
     st.counters["substeps"] = stages;
-    st.counters["h"] = h;
+    st.counters["h"] = p.h_step;
     st.counters["pairs"] = double(m);
-    st.counters["base_ns"] = 1e9 * base_s / (runs * pair_steps);
-    st.counters["substep_ns"] = 1e9 * composed_s / (runs * pair_steps * stages);
+    st.counters["baseline_ns"] = 1e9 * baseline_s / (runs * pair_steps);
+    st.counters["method_ns"] = 1e9 * method_s / (runs * pair_steps * stages);
     st.counters["ratio"] = m == 0 ? 0.0 : (m % 2 ? ratios[m / 2] : 0.5 * (ratios[m / 2 - 1] + ratios[m / 2]));
-    st.SetLabel(label_of(p.c.name, method, Scheme::name, composed.order(), h, 0, stages));
+    st.SetLabel(label_of(p.c.name, method, scheme, order, p.h_step, 0, stages) + ";baseline=" + baseline);
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->UseManualTime()->Unit(benchmark::kMicrosecond);
 }
+
+/// pair_steps steps of `stepper` along a trajectory from p's first state (as step/…).
+template <class StepperT, class SceneT>
+bool run_pair_steps(const StepperT& stepper, const Problem<SceneT>& p) {
+  auto s = start_of(stepper, p.c.initial);
+  const IntegrationSummary<double> sum =
+      integrate(stepper, s, p.c.initial.time + pair_steps * p.h_step, p.h_step, NoObserver{}, no_recovery);
+  benchmark::DoNotOptimize(s);
+  return sum.ok();
+}
+
+/// The composed stepper that `make(scene)` returns against its base scheme's step, per
+/// sub-step: step-pair/<case>/<method>/vs:<scheme>.
+template <class Scheme, class SceneT, class MakeStepper>
+void register_step_pair(const Problem<SceneT>& p, const std::string& method, Scheme scheme, MakeStepper make) {
+  register_timed_pair(p, method, Scheme::name, Scheme::name, [scheme, make](const Problem<SceneT>& q) {
+    auto base = std::make_shared<const Stepper<Scheme, SceneT>>(scheme, q.c.scene);
+    auto composed = std::make_shared<const decltype(make(q.c.scene))>(make(q.c.scene));
+    return std::make_tuple([base, &q] { return run_pair_steps(*base, q); },
+                           [composed, &q] { return run_pair_steps(*composed, q); }, stages_of(*composed), composed->order());
+  });
+}
+
+#ifdef TROMPO_HAVE_BOOST
+/// The stepper that `make(scene)` returns against odeint's runge_kutta4 step (the step/…/odeint-rk4
+/// loop), per step: step-pair/<case>/<method>/vs:odeint-rk4.
+template <class SceneT, class MakeStepper>
+void register_pair_vs_odeint_rk4(const Problem<SceneT>& p, const std::string& method, const std::string& scheme,
+                                 MakeStepper make) {
+  register_timed_pair(p, method, "odeint-rk4", scheme, [make](const Problem<SceneT>& q) {
+    namespace odeint = boost::numeric::odeint;
+    auto stepper = std::make_shared<const decltype(make(q.c.scene))>(make(q.c.scene));
+    auto rk = std::make_shared<odeint::runge_kutta4<bench::OdeState>>();
+    const auto odeint_run = [rk, &q] {
+      const bench::QuaternionOde<SceneT> ode{&q.c.scene};
+      bench::OdeState x = bench::to_ode(q.c.initial);
+      double t = q.c.initial.time;
+      for (int i = 0; i < pair_steps; ++i) {
+        rk->do_step(std::cref(ode), x, t, q.h_step);
+        t += q.h_step;
+      }
+      benchmark::DoNotOptimize(x);
+      return true;
+    };
+    return std::make_tuple(odeint_run, [stepper, &q] { return run_pair_steps(*stepper, q); }, 1, stepper->order());
+  });
+}
+#endif
 
 /// The pairs of the report's target "composed sub-step ≤ 1.05× base step" (docs/predictor.md):
 /// Suzuki-5, Kahan–Li-9 and, for Simo-κ, Kahan–Li-17, each against its base step, on `p`.

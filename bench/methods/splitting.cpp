@@ -188,6 +188,14 @@ void register_splitting_steps() {
   // are its per-step cost, beside step/fb1/odeint-rk4.
   for (SplittingMethod m : {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9})
     step<Splitting>(frees[0], m);
+#ifdef TROMPO_HAVE_BOOST
+  // The Strang step against odeint's runge_kutta4 step on HT1 and FB1 (the report's targets),
+  // timed in alternation (bench_common.hpp).
+  register_pair_vs_odeint_rk4(tops[1], method_of<Splitting>(SplittingMethod::strang), Splitting::name,
+                              [](const Top& scene) { return Stepper<Splitting, Top>(Splitting(SplittingMethod::strang), scene); });
+  register_pair_vs_odeint_rk4(frees[0], method_of<Splitting>(SplittingMethod::strang), Splitting::name,
+                              [](const Free& scene) { return Stepper<Splitting, Free>(Splitting(SplittingMethod::strang), scene); });
+#endif
 #if TROMPO_BENCH_EXACT
   // step/fb1/exact-free-body: exact::FreeBody evaluated at any t, one Λ(t) per iteration at
   // 1,000 times spread over [0, 1000] (one call of the free flow over t modulo the period of Π,

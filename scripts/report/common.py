@@ -79,26 +79,34 @@ def load(report_dir):
             steps[key]["cpu"].append(b["cpu_time"] * unit)
             steps[key]["newton"].append(b.get("newton", 0.0))
         elif name.startswith("step-pair/"):
-            # A composed sub-step against its base step, timed in alternation (bench_common.hpp).
+            # A method's (sub-)step against a baseline's step, timed in alternation
+            # (bench_common.hpp, register_timed_pair).
             if b.get("run_type") == "aggregate" or b.get("error_occurred"):
                 continue
-            pairs.setdefault((lab.get("case"), lab.get("method")), []).append(b)
+            pairs.setdefault(((lab.get("case"), lab.get("method")), lab.get("baseline")), []).append(b)
     for s in steps.values():
         c = sorted(s["cpu"])
         s["ns"] = c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
         s["ns_min"], s["ns_max"] = c[0], c[-1]
         s["newton_mean"] = sum(s["newton"]) / len(s["newton"])
-    # the pairs go with the composed method's step row: "pair" = medians over the repetitions
-    for key, reps in pairs.items():
+    # the pairs go with the method's step row: steps[key]["pairs"][baseline], medians over the
+    # repetitions of each repetition's own median ratio
+    for (key, baseline), reps in pairs.items():
         if key in steps:
             ratios = sorted(r["ratio"] for r in reps)
-            steps[key]["pair"] = {
+            steps[key].setdefault("pairs", {})[baseline] = {
                 "ratio": _median(ratios), "ratio_min": ratios[0], "ratio_max": ratios[-1],
-                "base_ns": _median(sorted(r["base_ns"] for r in reps)),
-                "substep_ns": _median(sorted(r["substep_ns"] for r in reps)),
+                "baseline_ns": _median(sorted(r["baseline_ns"] for r in reps)),
+                "method_ns": _median(sorted(r["method_ns"] for r in reps)),
                 "repetitions": len(reps),
             }
     return data.get("context", {}), sweep, steps
+
+
+def pair(steps, case, method, baseline):
+    """The alternation-timed pair of `method` against `baseline` on `case`, or None."""
+    s = steps.get((case, method))
+    return s.get("pairs", {}).get(baseline) if s else None
 
 
 def _median(c):

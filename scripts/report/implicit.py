@@ -38,16 +38,19 @@ def _status(ok):
     return "met" if ok else "**missed**"
 
 
+def _alternated(pr):
+    """A pair timed in alternation (step-pair/…, common.pair): both times and the ratio."""
+    return (f"{pr['method_ns']:.0f} ns vs {pr['baseline_ns']:.0f} ns, timed in alternation: **{pr['ratio']:.2f}×** "
+            f"(repetitions {pr['ratio_min']:.2f}–{pr['ratio_max']:.2f}×)")
+
+
 def _targets(sweep, steps):
     L = ["| target | configuration and measurement | status |", "|---|---|---|"]
     k, o = steps.get(("ht1", "simo-kappa")), steps.get(("ht1", "odeint-rk4"))
     pk = pair(steps, "ht1", "simo-kappa", "odeint-rk4")
     if pk:
-        ratio = pk["ratio"]
-        L.append(f"| Simo-κ step, HT1, h = 1e-3 ≤ {STEP_VS_ODEINT:g}× odeint runge_kutta4 | "
-                 f"{pk['method_ns']:.0f} ns vs {pk['baseline_ns']:.0f} ns, timed in alternation: **{ratio:.2f}×** "
-                 f"(repetitions {pk['ratio_min']:.2f}–{pk['ratio_max']:.2f}×), "
-                 f"{k['newton_mean']:.2f} corrections/step | {_status(ratio <= STEP_VS_ODEINT)} |")
+        L.append(f"| Simo-κ step, HT1, h = 1e-3 ≤ {STEP_VS_ODEINT:g}× odeint runge_kutta4 | {_alternated(pk)}, "
+                 f"{k['newton_mean']:.2f} corrections/step | {_status(pk['ratio'] <= STEP_VS_ODEINT)} |")
     elif k and o:
         ratio = k["ns"] / o["ns"]
         lo, hi = k["ns_min"] / o["ns_max"], k["ns_max"] / o["ns_min"]
@@ -62,12 +65,8 @@ def _targets(sweep, steps):
             comp = steps.get(("ht1", f"{scheme}-{v}"))
             pr = pair(steps, "ht1", f"{scheme}-{v}", scheme)
             if pr:
-                # timed in alternation (step-pair/…): the ratio within each pair of runs
-                ratio = pr["ratio"]
                 L.append(f"| composed sub-step ≤ {SUBSTEP_VS_BASE:g}× base step ({scheme}-{v}, HT1, h = 1e-3) | "
-                         f"{pr['method_ns']:.0f} ns vs {pr['baseline_ns']:.0f} ns, timed in alternation: "
-                         f"**{ratio:.2f}×** (repetitions {pr['ratio_min']:.2f}–{pr['ratio_max']:.2f}×) | "
-                         f"{_status(ratio <= SUBSTEP_VS_BASE)} |")
+                         f"{_alternated(pr)} | {_status(pr['ratio'] <= SUBSTEP_VS_BASE)} |")
             elif base and comp:
                 per = comp["ns"] / comp["substeps"]
                 ratio = per / base["ns"]

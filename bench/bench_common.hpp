@@ -619,12 +619,20 @@ void register_pair_vs_odeint_rk4(const Problem<SceneT>& p, const std::string& me
 #endif
 
 /// The pairs of the report's target "composed sub-step ≤ 1.05× base step" (docs/predictor.md):
-/// Suzuki-5, Kahan–Li-9 and, for Simo-κ, Kahan–Li-17, each against its base step, on `p`.
+/// each composition of `ms` against its base step, on `p`.
 template <class Scheme, class SceneT>
 void register_composition_pairs(const Problem<SceneT>& p, Scheme scheme, std::initializer_list<Composition> ms) {
   for (Composition m : ms)
     register_step_pair(p, method_name(Scheme::name, m), scheme,
                        [scheme, m](const SceneT& scene) { return ComposedStepper<Scheme, SceneT>(scheme, scene, m); });
+}
+
+/// step-pair/<case>/<scheme>-p6/vs:<scheme>: the processed composition's kernel step (13 base
+/// steps, as step/<case>/<scheme>-p6) against its base step.
+template <class Scheme, class SceneT>
+void register_processed_pair(const Problem<SceneT>& p, Scheme scheme) {
+  register_step_pair(p, std::string(Scheme::name) + "-p6", scheme,
+                     [scheme](const SceneT& scene) { return ProcessedStepper<Scheme, SceneT>(scheme, scene); });
 }
 
 // ---- families of methods from other files ----------------------------------------------------

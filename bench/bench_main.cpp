@@ -101,10 +101,6 @@ void register_steps(const Problem<SceneT>& p) {
     st.counters["substeps"] = 1;
     st.SetLabel(label_of(p.c.name, "odeint-rk4", "odeint-rk4", 4, p.h_step));
   })->MinTime(step_min_time)->Repetitions(step_repetitions)->Unit(benchmark::kNanosecond);
-  // the target's ratio, timed in alternation (bench_common.hpp): Simo-κ's step against it
-  if (std::string(p.c.name) == "ht1")
-    register_pair_vs_odeint_rk4(p, SimoKappa::name, SimoKappa::name,
-                                [](const SceneT& scene) { return Stepper<SimoKappa, SceneT>(SimoKappa{}, scene); });
 #endif
   for_each_registered<SceneT>([&]([[maybe_unused]] auto scheme) {
     if constexpr (!std::is_same_v<decltype(scheme), SimoKappa>) register_step(p, scheme, 2);  // Simo-κ: above

@@ -11,7 +11,8 @@
 // reach the joint bound (‖ΔΛ‖ ≤ 1e-6 and max |ΔH/H| ≤ 1e-12) or an attitude bound.
 // Also here: the order-8 compositions (Kahan–Li, 17 steps) and the processed order-6 method
 // (Blanes–Casas–Murua) on the t = 10 cases, and their steps on HT1; and step-pair/ht1/…,
-// each composed sub-step against its base step timed in alternation (bench_common.hpp).
+// each composed sub-step against its base step, and Simo-κ's step against odeint's
+// runge_kutta4, timed in alternation (bench_common.hpp).
 #include "bench_common.hpp"
 
 #ifndef TROMPO_IMPLICIT_LONG_EXPLICIT
@@ -89,12 +90,13 @@ void register_steps_all() {
     register_composition_pairs(tops[1], SimoKappa{},
                                {Composition::suzuki5, Composition::kahan_li9, Composition::kahan_li17});
     register_composition_pairs(tops[1], GeradinBauchau{}, {Composition::suzuki5, Composition::kahan_li9});
-    register_step_pair(tops[1], std::string(SimoKappa::name) + "-p6", SimoKappa{}, [](const Top& scene) {
-      return ProcessedStepper<SimoKappa, Top>(SimoKappa{}, scene);
-    });
-    register_step_pair(tops[1], std::string(GeradinBauchau::name) + "-p6", GeradinBauchau{}, [](const Top& scene) {
-      return ProcessedStepper<GeradinBauchau, Top>(GeradinBauchau{}, scene);
-    });
+    register_processed_pair(tops[1], SimoKappa{});
+    register_processed_pair(tops[1], GeradinBauchau{});
+#ifdef TROMPO_HAVE_BOOST
+    // the base step's target: Simo-κ against odeint's runge_kutta4 step, in alternation too
+    register_pair_vs_odeint_rk4(tops[1], SimoKappa::name, SimoKappa::name,
+                                [](const Top& scene) { return Stepper<SimoKappa, Top>(SimoKappa{}, scene); });
+#endif
   }
 }
 

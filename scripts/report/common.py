@@ -86,7 +86,7 @@ def load(report_dir):
             pairs.setdefault(((lab.get("case"), lab.get("method")), lab.get("baseline")), []).append(b)
     for s in steps.values():
         c = sorted(s["cpu"])
-        s["ns"] = c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
+        s["ns"] = _median(c)
         s["ns_min"], s["ns_max"] = c[0], c[-1]
         s["newton_mean"] = sum(s["newton"]) / len(s["newton"])
     # the pairs go with the method's step row: steps[key]["pairs"][baseline], medians over the
@@ -110,6 +110,7 @@ def pair(steps, case, method, baseline):
 
 
 def _median(c):
+    """The median of a sorted, non-empty list."""
     return c[len(c) // 2] if len(c) % 2 else 0.5 * (c[len(c) // 2 - 1] + c[len(c) // 2])
 
 

@@ -3,8 +3,8 @@
 section(sweep, steps) returns the report's markdown lines:
   - the target table: the Simo-kappa step vs odeint's runge_kutta4 step (HT1, h = 1e-3), a
     composed sub-step vs a base step (both from step-pair/ht1/..., each pair timed in
-    alternation, when the run has them; else from the step/ rows), attitude alone at 1e-10 (t = 10), and the joint bound
-    at t = 1000 (HT0, HT1) against dopri5 and RK4;
+    alternation, when the run has them; else from the step/ rows), attitude alone at 1e-10
+    (t = 10), and the joint bound at t = 1000 (HT0, HT1) against dopri5 and RK4;
   - the joint and attitude-only frontiers at t = 1000 (cases "ht0-t1000", "ht1-t1000": the
     implicit rows from bench/methods/implicit_long.cpp, the explicit ones from the
     splitting family's bench/methods/splitting.cpp).

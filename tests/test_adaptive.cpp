@@ -212,6 +212,85 @@ TEST_CASE("adaptive: the tolerance over the span or per unit time, the defect ag
   CHECK(static_cast<double>(base[2]) >= 1.3 * static_cast<double>(base[0]));
 }
 
+TEST_CASE("adaptive: Richardson's estimate for the splitting", "[adaptive]") {
+  // [A8]. automatic picks it for the splitting (m = 8 steps per attempt) and the
+  // defect for Simo-kappa; an attempt is m steps the run keeps plus one coarse step of m·h,
+  // so the steps taken are (m + 1)/m of those kept; on HT1, whose load is small, the end
+  // error follows the tolerance (the defect of the splitting's interpolant would overestimate
+  // its error there by 10^2 to 10^5 at order 6, and take 5-7x the steps).
+  const auto c = cases::ht1();
+  const Exact ex = exact_of(c);
+  {
+    AdaptiveOptions<double> opt;
+    opt.rtol = opt.atol = 1e-8;
+    State<double> s = c.initial;
+    const auto simo = integrate_adaptive(ComposedStepper<SimoKappa, Top>(SimoKappa{}, c.scene, 4), s, 0.5, opt);
+    s = c.initial;
+    const auto suzuki = integrate_adaptive(Stepper<Splitting, Top>(Splitting(SplittingMethod::suzuki_5), c.scene), s, 0.5, opt);
+    CHECK(simo.substeps == 1);
+    CHECK(suzuki.substeps == 8);
+    CHECK(suzuki.accepted % 8 == 0);
+    CHECK(suzuki.base_steps == (suzuki.accepted / 8 + suzuki.rejected) * 9);
+  }
+  Stepper<Splitting, Top> stepper(Splitting(SplittingMethod::kahan_li_9), c.scene);
+  std::vector<double> tols, errs;
+  for (double tol : {1e-9, 1e-10, 1e-11, 1e-12}) {
+    AdaptiveOptions<double> opt;
+    opt.rtol = opt.atol = tol;
+    State<double> s = c.initial;
+    const AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, c.t_end, opt);
+    REQUIRE(sum.ok());
+    CHECK(sum.substeps == 8);
+    CHECK(sum.base_steps == (sum.accepted / 8 + sum.rejected) * 9);
+    opt.estimate = ErrorEstimate::defect;
+    State<double> d = c.initial;
+    const AdaptiveSummary<double> defect = integrate_adaptive(stepper, d, c.t_end, opt);
+    REQUIRE(defect.ok());
+    const double e = state_error(s, ex), e_defect = state_error(d, ex);
+    std::printf("HT1 splitting Kahan-Li-9 rtol %.0e: Richardson %lld steps (%lld rejected), error/tol %.2f; defect %lld "
+                "steps, error/tol %.2e\n",
+                tol, static_cast<long long>(sum.accepted), static_cast<long long>(sum.rejected), e / tol,
+                static_cast<long long>(defect.accepted), e_defect / tol);
+    CHECK(e / tol >= 0.2);
+    CHECK(e / tol <= 10);
+    CHECK(defect.accepted >= 2 * sum.accepted);
+    tols.push_back(std::log10(tol));
+    errs.push_back(std::log10(e));
+  }
+  const double slope = (errs.back() - errs.front()) / (tols.back() - tols.front());
+  std::printf("HT1 splitting Kahan-Li-9, Richardson: log-log slope %.3f\n", slope);
+  CHECK(slope >= 0.85);
+  CHECK(slope <= 1.15);
+}
+
+TEST_CASE("adaptive: Richardson's steps are the scheme's steps, each a dense node", "[adaptive][dense]") {
+  // Every step the run keeps is reported (observer, solve()'s states) with its own node: the
+  // next state is the scheme's step from the previous one (up to the hold's round-off), and
+  // the events are located on each step's interpolant.
+  const auto c = cases::ht1();
+  Stepper<Splitting, Top> stepper(Splitting(SplittingMethod::suzuki_5), c.scene);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-9;
+  const AdaptiveRun<double> run = solve(stepper, c.initial, 1.0, opt);
+  REQUIRE(run.success());
+  REQUIRE(run.summary.substeps == 8);
+  REQUIRE(static_cast<std::int64_t>(run.states.size()) == run.summary.accepted + 1);
+  double worst = 0, worst_mid = 0;
+  for (std::size_t k = 0; k + 1 < run.states.size(); ++k) {
+    State<double> s = run.states[k];
+    REQUIRE(stepper.step(s, run.states[k + 1].time - s.time).ok());
+    worst = std::max(worst, (run.states[k + 1].rotation.inverse() * s.rotation).log().norm() +
+                                (run.states[k + 1].omega - s.omega).norm());
+    // the dense solution passes through every kept state
+    const State<double> mid = run.solution(run.states[k].time);
+    worst_mid = std::max(worst_mid, (mid.rotation.inverse() * run.states[k].rotation).log().norm());
+  }
+  std::printf("HT1 splitting Suzuki-5, Richardson: %zu states; step from the previous state %.2e, solution(t_k) %.2e\n",
+              run.states.size(), worst, worst_mid);
+  CHECK(worst <= 1e-12);
+  CHECK(worst_mid <= 1e-14);
+}
+
 TEST_CASE("adaptive: a damped spin-down takes 3x fewer steps than the best fixed h", "[adaptive]") {
   // The time scale varies: a free body J = diag(1, 2, 3) spun about its minor axis at 30 rad/s
   // under viscous damping c = 0.05 slows to 0.2 rad/s by t = 100. A fixed h must resolve the
@@ -644,6 +723,10 @@ TEST_CASE("adaptive: bad input throws invalid_input naming the field", "[adaptiv
   bad([&](auto& o) { o.first_step = -0.1; }, "first_step");
   bad([&](auto& o) { o.max_step = 0; }, "max_step");
   bad([&](auto& o) { o.epsilon = nan; }, "epsilon");
+  bad([&](auto& o) { o.substeps = 1; }, "substeps");
+  bad([&](auto& o) { o.substeps = 17; }, "substeps");
+  bad([&](auto& o) { o.estimate = ErrorEstimate::doubling, o.substeps = 4; }, "substeps");
+  bad([&](auto& o) { o.estimate = ErrorEstimate::defect, o.substeps = 4; }, "substeps");
   AdaptiveOptions<double> opt;
   State<double> s = c.initial;
   CHECK_THROWS_WITH(integrate_adaptive(stepper, s, nan, opt), Catch::Contains("t_end"));

@@ -94,8 +94,8 @@ void register_tolerance_sweep(const Problem<SceneT>& p, const std::string& metho
 
 /// step-adaptive/<case>/<method>: the time of one accepted adaptive step at h = h_step
 /// (max_step = first_step = h_step and a tolerance loose enough that no step is rejected):
-/// the step, its error estimate (the defect [D4] up to order 6), its norm and the controller
-/// [A1]–[A3]. Each iteration runs the same 1000 steps twice, at fixed h (integrate(), as
+/// the step, its error estimate (the defect [D4] for Simo-κ; for the splitting Richardson's
+/// [A8], one coarse step of 8h per 8 steps kept), its norm and the controller [A1]–[A3]. Each iteration runs the same 1000 steps twice, at fixed h (integrate(), as
 /// step/<case>/<method>) and adaptive, one after the other, so that the ratio of the two
 /// sees the same machine load (on a shared machine, the load drifts between two benchmarks
 /// by more than the overhead measured). The benchmark's time is the adaptive runs' (manual

@@ -45,6 +45,21 @@ def test_tolerance_scope_and_estimate():
         trompo.solve_ivp("ht0", (0, 1), rtol=1e-6, estimate="guess")
 
 
+def test_richardson_for_the_splitting():
+    # automatic: Richardson's estimate, m = 8 steps per attempt at order 6 (nsteps a multiple
+    # of 8); substeps=2 is accepted as a flag; the rows are the CLI's
+    res = trompo.solve_ivp("ht1", (0, 2), rtol=1e-10, atol=1e-10, scheme="splitting", order=6)
+    two = trompo.solve_ivp("ht1", (0, 2), rtol=1e-10, atol=1e-10, scheme="splitting", order=6, substeps=2)
+    assert res.success and two.success
+    assert res.nsteps % 8 == 0 and two.nsteps % 2 == 0
+    code, cli, err = run_cli(["--case", "ht1", "--t-end", "2", "--scheme", "splitting", "--order", "6",
+                              "--rtol", "1e-10", "--atol", "1e-10", "--substeps", "2"])
+    assert code == 0
+    same_rows(two, cli)
+    with pytest.raises(ValueError, match="substeps"):
+        trompo.solve_ivp("ht1", (0, 1), rtol=1e-6, scheme="splitting", substeps=1)
+
+
 def test_bad_input():
     with pytest.raises(ValueError, match="rtol"):
         trompo.solve_ivp("ht1", (0, 1), rtol=0)

@@ -112,14 +112,23 @@ def held(pts):
     return [close[0] if close else False] + close
 
 
-def at_floor(pts):
+def at_floor(pts, held_by_cap):
     """Per point (tolerance decreasing): True from the first point on whose error fell less
     than 3x below its looser neighbour's for a tenfold tighter tolerance: the round-off floor,
-    where err/tol and the comparisons at equal error say nothing about the control."""
+    where err/tol and the comparisons at equal error say nothing about the control (round-off:
+    errors below 1e-8; above, a slow fall is the loose end's, not a floor). A point
+    the rotation cap holds is compared with none (its error is its neighbour's, the steps being
+    the same): a point after held ones is compared with the last point not held, and counts as
+    at the floor when its error is 1000x below its tolerance (the splitting with Richardson's
+    estimate on FB1, whose error is round-off at any step the cap allows)."""
     e = [b["err_rot"] for _, b in pts]
-    out, floor = [False], False
-    for k in range(1, len(e)):
-        floor = floor or not (e[k] < e[k - 1] / 3)
+    tols = [t for t, _ in pts]
+    out, floor, last = [], False, None
+    for k in range(len(e)):
+        if not held_by_cap[k]:
+            floor = floor or e[k] < 1e-3 * tols[k] or (
+                last is not None and e[k] < 1e-8 and not (e[k] < e[last] / 3 ** (k - last)))
+            last = k
         out.append(floor)
     return out
 
@@ -127,7 +136,8 @@ def at_floor(pts):
 def active(pts, lo=None, hi=None):
     """The points where the tolerance sets the steps and the error follows it (not held by
     the rotation cap, not at the round-off floor), optionally within [lo, hi]."""
-    out = [(tol, b) for (tol, b), h, f in zip(pts, held(pts), at_floor(pts)) if not h and not f]
+    h_cap = held(pts)
+    out = [(tol, b) for (tol, b), h, f in zip(pts, h_cap, at_floor(pts, h_cap)) if not h and not f]
     return [(t, b) for t, b in out if (lo is None or t >= lo * 0.999) and (hi is None or t <= hi * 1.001)]
 
 
@@ -334,12 +344,14 @@ def section(report_dir):
          "![Adaptive steps: end error against the tolerance](img/adaptive_tolerance.png)", "",
          "![Adaptive steps: work–precision beside fixed h and dopri5](img/adaptive_work_precision.png)", "",
          "The adaptive driver ([adaptive.md](adaptive.md)) in tolerance mode, rtol = atol = tol a decade apart, "
-         "the tolerance over the span (the end error ≈ tol), the defect estimate up to order 6: Simo-κ at orders "
+         "the tolerance over the span (the end error ≈ tol), the automatic estimate (the defect for Simo-κ, "
+         "Richardson's with 8 steps per attempt for the splitting): Simo-κ at orders "
          "2, 4 (Suzuki-5), 6 (Kahan–Li-9) and the splitting (Strang, Suzuki-5, Kahan–Li-9), each beside its own "
          "fixed-h sweep and odeint's dopri5 at the same tolerances (dopri5's tolerance is per step: its end "
          "error is not tol). Where the accepted count stays within 5 % of the looser tolerance's, the rotation "
          "cap (3 rad a step) holds h and the tolerance does not set the steps; from the first point whose error "
-         "falls less than 3× below the looser tolerance's, the error sits at the round-off floor: both kinds of "
+         "falls less than 3× below the looser tolerance's (below 1e-8; comparing points the cap does not hold), "
+         "or from the first 1000× below its tolerance, the error sits at the round-off floor: both kinds of "
          "points are left out of the ratios. \"time / fixed-h time\" and \"fixed-h steps / steps\" compare with the same method's fixed-h "
          "sweep at the same end error (log–log interpolation between its two neighbouring points). SPIN-DOWN, "
          "the case whose time scale varies (a free body J = diag(1, 2, 3) spun at 30 rad/s about its minor axis "

@@ -22,6 +22,13 @@ check "--tol-scope time: fewer steps than the span's" '[ $rc -eq 0 ] && [ "$(ste
 "$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --estimate doubling >/dev/null 2>"$tmp/d.err"; rc=$?
 check "--estimate doubling runs" '[ $rc -eq 0 ] && grep -q "reached t_end" "$tmp/d.err"'
 
+# the splitting: Richardson's estimate by default, m = 8 steps per attempt at order 6 (the
+# accepted count a multiple of 8); --substeps 2 takes about as many steps for the same tolerance
+"$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 >/dev/null 2>"$tmp/r.err"; rc=$?
+check "splitting, automatic (Richardson, m = 8): accepted a multiple of 8" '[ $rc -eq 0 ] && [ $(( $(steps "$tmp/r.err") % 8 )) -eq 0 ]'
+"$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 --substeps 2 >/dev/null 2>"$tmp/r2.err"; rc=$?
+check "--substeps 2: even, within 1.5x of m = 8's steps" '[ $rc -eq 0 ] && [ $(( $(steps "$tmp/r2.err") % 2 )) -eq 0 ] && [ $(( 2 * $(steps "$tmp/r2.err") )) -le $(( 3 * $(steps "$tmp/r.err") )) ] && [ $(( 3 * $(steps "$tmp/r2.err") )) -ge $(( 2 * $(steps "$tmp/r.err") )) ]'
+
 "$sim" --case ht0 --t-end 2 --order 4 --rtol 1e-8 --atol 1e-8 --t-eval 0,0.25,0.5,1.75 >"$tmp/t.csv" 2>/dev/null; rc=$?
 check "--t-eval: exactly those times" '[ $rc -eq 0 ] && [ "$(tail -n +2 "$tmp/t.csv" | cut -d, -f1 | tr "\n" " ")" = "0 0.25 0.5 1.75 " ]'
 printf '0.125\n\n0.375\n' >"$tmp/times.txt"
@@ -54,6 +61,12 @@ bad "--control unknown" --case ht1 --rtol 1e-6 --control fast
 bad "--tol-scope unknown" --case ht1 --rtol 1e-6 --tol-scope orbit
 bad "--estimate unknown" --case ht1 --rtol 1e-6 --estimate guess
 bad "--estimate without --rtol" --case ht1 --estimate defect
+bad "--substeps 1" --case ht1 --rtol 1e-6 --scheme splitting --substeps 1
+bad "--substeps 17" --case ht1 --rtol 1e-6 --scheme splitting --substeps 17
+bad "--substeps 2.5" --case ht1 --rtol 1e-6 --scheme splitting --substeps 2.5
+bad "--substeps with --estimate defect" --case ht1 --rtol 1e-6 --estimate defect --substeps 4
+bad "--substeps without --rtol" --case ht1 --scheme splitting --substeps 4
+bad "--estimate unknown, splitting" --case ht1 --scheme splitting --rtol 1e-6 --estimate guess
 bad "--event unknown" --case ht1 --rtol 1e-6 --event wobble
 bad "--event nutation on a free body" --case fb1 --rtol 1e-6 --event nutation-max
 bad "--event-csv without --event" --case ht1 --rtol 1e-6 --event-csv "$tmp/x.csv"

@@ -74,9 +74,11 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     opt.atol = a.atol;
     opt.control = a.control == "reversible" ? StepControl::reversible : StepControl::tolerance;
     opt.tolerance_over_span = a.tol_scope == "span";
-    opt.estimate = a.estimate == "defect"     ? ErrorEstimate::defect
-                   : a.estimate == "doubling" ? ErrorEstimate::doubling
-                                              : ErrorEstimate::automatic;
+    opt.estimate = a.estimate == "defect"       ? ErrorEstimate::defect
+                   : a.estimate == "doubling"   ? ErrorEstimate::doubling
+                   : a.estimate == "richardson" ? ErrorEstimate::richardson
+                                                : ErrorEstimate::automatic;
+    opt.substeps = a.substeps;
     opt.first_step = std::abs(*c.dt);
     std::vector<Event<double>> ev;
     for (const auto& [name, terminal] : a.events) ev.push_back(events::by_name(scene, name, terminal));

@@ -104,8 +104,10 @@ constexpr const char* kUsageFlags =
     "                               time-reversible step density (conservative scenes, long runs)\n"
     "  --tol-scope span|time        the tolerances bound the end error of the run (default), or the\n"
     "                               error per unit time (the end error then grows like tol*t)\n"
-    "  --estimate automatic|defect|doubling   tolerance mode's error estimate (default automatic:\n"
-    "                               the interpolant's defect up to order 6, step doubling above)\n"
+    "  --estimate automatic|defect|richardson|doubling   tolerance mode's error estimate (default\n"
+    "                               automatic: Richardson's for the splitting, else the interpolant's\n"
+    "                               defect up to order 6 and step doubling above)\n"
+    "  --substeps M                 Richardson's estimate: steps per attempt, 2..16 (default 8)\n"
     "  --t-eval T1,T2,...|@FILE     rows at exactly these times (dense output), and only these\n"
     "  --event NAME[:terminal[:N]]  nutation-max|nutation-min|axis-crossing|flip (repeatable)\n"
     "  --event-csv FILE             one row per event: event, then the usual columns\n";
@@ -117,7 +119,8 @@ struct AdaptiveFlags {
   double rtol = 1e-3, atol = 1e-6;  ///< SciPy's defaults (--rtol is required to switch on)
   std::string control = "tolerance";
   std::string tol_scope = "span";      ///< --tol-scope span|time
-  std::string estimate = "automatic";  ///< --estimate automatic|defect|doubling
+  std::string estimate = "automatic";  ///< --estimate automatic|defect|richardson|doubling
+  int substeps = 0;                    ///< --substeps M (0: automatic)
   std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
   std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
   std::string event_csv;                             ///< --event-csv FILE
@@ -271,6 +274,10 @@ inline bool parse_adaptive_flag(const std::string& flag, const std::string& valu
     a.tol_scope = value;
   } else if (flag == "--estimate") {
     a.estimate = value;
+  } else if (flag == "--substeps") {
+    const double m = parse_number(flag, value);
+    if (!(m >= 2 && m <= 16 && m == std::floor(m))) throw invalid_input("--substeps: must be an integer in [2, 16], got " + value);
+    a.substeps = static_cast<int>(m);
   } else if (flag == "--t-eval") {
     if (!value.empty() && value[0] == '@') {  // @FILE: one time a line (blank lines skipped)
       std::ifstream in(value.substr(1));
@@ -471,6 +478,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     if (!c.ensemble.empty())
       for (const char* f : {"--rotation", "--omega", "--every"})
         if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
+    check_adaptive(c, flags);  // adaptive steps (before this return, the splitting skipped them)
     return c;
   }
   if (c.energy_projection) throw invalid_input("--energy-projection: only with --scheme splitting");
@@ -514,7 +522,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
 inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags) {
   const AdaptiveFlags& a = c.adaptive;
   if (!a.on) {
-    for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--t-eval", "--event", "--event-csv"})
+    for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--substeps", "--t-eval", "--event", "--event-csv"})
       if (flags.count(f)) throw invalid_input(std::string(f) + ": only with adaptive steps (give --rtol)");
     return;
   }
@@ -524,8 +532,10 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
     throw invalid_input("--control: must be tolerance or reversible, got '" + a.control + "'");
   if (a.tol_scope != "span" && a.tol_scope != "time")
     throw invalid_input("--tol-scope: must be span or time, got '" + a.tol_scope + "'");
-  if (a.estimate != "automatic" && a.estimate != "defect" && a.estimate != "doubling")
-    throw invalid_input("--estimate: must be automatic, defect or doubling, got '" + a.estimate + "'");
+  if (a.estimate != "automatic" && a.estimate != "defect" && a.estimate != "richardson" && a.estimate != "doubling")
+    throw invalid_input("--estimate: must be automatic, defect, richardson or doubling, got '" + a.estimate + "'");
+  if (flags.count("--substeps") && a.estimate != "richardson" && a.estimate != "automatic")
+    throw invalid_input("--substeps: only with --estimate richardson or automatic, got --estimate " + a.estimate);
   if (!c.ensemble.empty()) throw invalid_input("--rtol: adaptive steps are not available with --ensemble");
   if (c.scheme == "exact") throw invalid_input("--rtol: --scheme exact has no steps to adapt (use --t-eval with a scheme)");
   if (c.processed)

@@ -16,15 +16,22 @@
 // for the whole variable-step run; no extrapolated value is ever used (it would break H, μ).
 // The one correction is [A7]'s (`hold_invariants`, drivers/invariant_hold.hpp): after the
 // error test of every 8th accepted step, a nudge of at most 64ε back onto the first state's
-// H and μ (π), which stops round-off's √N·ε walk over long runs. Two error estimates (`AdaptiveOptions::estimate`):
+// H and μ (π), which stops round-off's √N·ε walk over long runs. Three error estimates (`AdaptiveOptions::estimate`):
 //  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
 //    the integral of the defect u' − f(u) of the step's Lie–Hermite interpolant u (cubic at
 //    order 2, quintic at orders 4 and 6), by Simpson's rule (order 2) or Hermite's (orders
 //    4 and 6: Simpson's nodes plus the rates' derivatives at the ends, which the quintic
 //    has), whose ends are the nodes' rates: 1 new evaluation of Ω̇ per attempt, plus the
 //    end node (Ω̇, and Ω̈ for the quintic), which the dense output and events reuse;
-//  - doubling (orders above 6): Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y), the run advancing with the
-//    halves, e = (Ψ_{h/2}² − Ψ_h)/(2^p − 1); three steps per attempt.
+//  - richardson (default for schemes whose error scales with the load: the splitting) [A8]:
+//    an attempt is m steps of h (the run advancing with them) and one coarse step of m·h from
+//    the same start, e = (Ψ_h^m − Ψ_{mh})/(m^p − 1): the scheme's own error, whatever its
+//    size, at 1/m of a step per step (m = `substeps`, 8 unless given);
+//  - doubling (orders above 6): Richardson's with m = 2, Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y);
+//    three steps per attempt of two.
+// With Richardson's estimate h, first_step, max_step and max_rotation are those of the
+// steps the run advances with (an attempt spans m of them), `accepted` counts them, and
+// each has its dense node; the controller acts once per attempt.
 // The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
 // per unit step), so that the global error is ∝ tol.
 // Söderlind's H211b filter [A3] picks the next h; a rejected step retries with the
@@ -86,9 +93,10 @@ enum class StepControl {
 
 /// How tolerance mode estimates the error of a step [A3].
 enum class ErrorEstimate {
-  automatic,  ///< defect for schemes of order ≤ 6, doubling above
-  defect,     ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–2 evaluations of Ω̇
-  doubling    ///< Ψ_h against Ψ_{h/2}∘Ψ_{h/2}, advancing with the halves: three steps per attempt
+  automatic,   ///< richardson where the error scales with the load (the splitting); else defect up to order 6, doubling above
+  defect,      ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–2 evaluations of Ω̇
+  doubling,    ///< richardson with m = 2: Ψ_{2h} against Ψ_h∘Ψ_h, three steps per two
+  richardson   ///< Ψ_{mh} against Ψ_h^m, advancing with the m steps [A8]: m + 1 steps per m
 };
 
 /// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
@@ -98,8 +106,12 @@ struct AdaptiveOptions {
   Scalar atol = Scalar(1e-6);             ///< absolute tolerance (≥ 0; rad and rad/s)
   /// Tolerance (error estimate + PI control) or reversible (step density) mode.
   StepControl control = StepControl::tolerance;
-  /// Tolerance mode: the error estimate (automatic: defect up to order 6, else doubling).
+  /// Tolerance mode: the error estimate (automatic: Richardson's for the splitting, else
+  /// the defect up to order 6 and doubling above).
   ErrorEstimate estimate = ErrorEstimate::automatic;
+  /// Richardson's estimate: the steps m per attempt, 2 … 16 (0: 8; doubling is m = 2;
+  /// ignored where automatic picks the defect) [A8].
+  int substeps = 0;
   /// Tolerance mode: true (default) — the tolerances bound the error at the end of the span
   /// T = |t_end − t₀|: the error per unit step is held to tol/T, so that the end error,
   /// which grows like t for a rigid body (its phase), is ≈ tol whatever T [A2]; false — the
@@ -127,6 +139,9 @@ struct AdaptiveOptions {
   /// they come.
   bool hold_invariants = true;
 
+  /// The largest `substeps`.
+  static constexpr int max_substeps = 16;
+
   /// Throws invalid_input naming the first bad field.
   void validate() const {
     using std::isfinite;
@@ -143,6 +158,12 @@ struct AdaptiveOptions {
       detail::fail("adaptive: min_factor must be in (0, 1), got ", min_factor);
     if (!(fin(max_factor) && max_factor > 1)) detail::fail("adaptive: max_factor must be finite and > 1, got ", max_factor);
     if (max_steps < 1) detail::fail("adaptive: max_steps must be >= 1, got ", max_steps);
+    if (substeps != 0 && (substeps < 2 || substeps > max_substeps))
+      detail::fail("adaptive: substeps must be 0 (automatic) or in [2, ", max_substeps, "], got ", substeps);
+    if (estimate == ErrorEstimate::doubling && substeps != 0 && substeps != 2)
+      detail::fail("adaptive: estimate = doubling takes 2 substeps, got substeps = ", substeps);
+    if (estimate == ErrorEstimate::defect && substeps != 0)
+      detail::fail("adaptive: substeps are Richardson's; estimate = defect takes none, got substeps = ", substeps);
     if (!(fin(epsilon) && epsilon >= 0)) detail::fail("adaptive: epsilon must be finite and >= 0, got ", epsilon);
     if (!(fin(omega_floor) && omega_floor >= 0))
       detail::fail("adaptive: omega_floor must be finite and >= 0, got ", omega_floor);
@@ -159,8 +180,8 @@ enum class AdaptiveStatus : int {
 /// What the adaptive driver did.
 template <class Scalar>
 struct AdaptiveSummary {
-  std::int64_t accepted = 0;    ///< accepted steps
-  std::int64_t rejected = 0;    ///< steps rejected by the error test
+  std::int64_t accepted = 0;    ///< accepted steps (with Richardson's estimate, each of an attempt's m)
+  std::int64_t rejected = 0;    ///< attempts rejected by the error test
   std::int64_t failures = 0;    ///< attempts whose step failed (Newton, …), retried shorter
   std::int64_t iterations = 0;  ///< Newton iterations of all attempts
   std::int64_t base_steps = 0;  ///< step() calls on the stepper (each a whole composition)
@@ -170,6 +191,7 @@ struct AdaptiveSummary {
   Scalar time = Scalar(0);              ///< the time reached
   Scalar epsilon = Scalar(0);           ///< reversible mode: the ε used
   Scalar h_last = Scalar(0);            ///< the last accepted step
+  int substeps = 1;                     ///< steps per attempt: Richardson's m, else 1
   /// True unless the run failed.
   bool ok() const { return status != AdaptiveStatus::failed; }
   /// SciPy's message.
@@ -418,6 +440,8 @@ struct AdaptiveLoop {
   // attempt (b), kept so that each accepted step evaluates one new node.
   bool use_defect = false;
   DefectRule defect_rule = DefectRule::simpson;
+  /// Steps per attempt: Richardson's m [A8], 1 with the defect estimate.
+  int m = 1;
   /// The defect attempt steps `traj` itself when the stepper's memory is only a hint (a
   /// history predictor) or absent: a rejected step puts back the state alone, the memory
   /// keeping that step's history as a hint (any memory is a correct start for such a
@@ -433,7 +457,11 @@ struct AdaptiveLoop {
       return false;
   }();
   State<Scalar> start_state{};  ///< the state before an in-place attempt
-  Traj doubling_coarse{};       ///< step doubling's Ψ_h, kept across attempts (assign copies the used memory)
+  Traj coarse{};                ///< Richardson's Ψ_{mh}, kept across attempts (assign copies the used memory)
+  /// Richardson's attempt: the states after its first m − 1 steps, for their dense nodes,
+  /// and the trajectory they are committed through.
+  std::array<State<Scalar>, AdaptiveOptions<Scalar>::max_substeps - 1> substates{};
+  Traj substep{};
   DenseNode<Scalar> node_a{}, node_b{};
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
@@ -453,31 +481,33 @@ struct AdaptiveLoop {
     return result;
   }
 
-  /// r² of the error norm per unit step [A2] of the estimate (fine − coarse)/(2^p − 1).
-  Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse, const State<Scalar>& fine,
+  /// r² of the error norm per unit step [A2] of Richardson's estimate [A8]
+  /// (fine − coarse)/(m^p − 1) of an attempt of span h.
+  Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse_end, const State<Scalar>& fine,
                              Scalar h) const {
-    const Scalar k = Scalar((1 << stepper.order()) - 1);  // 2^p − 1
-    const Vector3 e_rot = (coarse.rotation.inverse() * fine.rotation).log() / k;
-    const Vector3 e_om = (fine.omega - coarse.omega) / k;
+    const Scalar k = integer_power(Scalar(m), stepper.order()) - Scalar(1);  // m^p − 1
+    const Vector3 e_rot = (coarse_end.rotation.inverse() * fine.rotation).log() / k;
+    const Vector3 e_om = (fine.omega - coarse_end.omega) / k;
     return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
   }
 
-  /// |h| (≥ 0) within max_step and the rotation cap |h||Ω| ≤ max_rotation, tested on
-  /// squares: the square root and the division only when the rotation cap binds (between
-  /// steps they would wait on the step's end).
-  Scalar capped(Scalar h_abs, const Vector3& omega) const {
+  /// The span |h| (≥ 0) of `steps` steps, each within max_step and the rotation cap
+  /// |h||Ω| ≤ max_rotation, tested on squares: the square root and the division only when
+  /// the rotation cap binds (between steps they would wait on the step's end).
+  Scalar capped(Scalar h_abs, const Vector3& omega, int steps = 1) const {
     using std::sqrt;
-    h_abs = std::min(h_abs, opt.max_step);
-    const Scalar w2 = omega.squaredNorm();
-    if (h_abs * h_abs * w2 > opt.max_rotation * opt.max_rotation) h_abs = opt.max_rotation / sqrt(w2);
+    const Scalar k = Scalar(steps);
+    h_abs = std::min(h_abs, k * opt.max_step);
+    const Scalar w2 = omega.squaredNorm(), turn = k * opt.max_rotation;
+    if (h_abs * h_abs * w2 > turn * turn) h_abs = turn / sqrt(w2);
     return h_abs;
   }
 
-  /// The first step (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
+  /// The first attempt's span: m first steps (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
   Scalar first_step() const {
     using std::pow;
     using std::sqrt;
-    if (opt.first_step > 0) return capped(opt.first_step, traj.omega);
+    if (opt.first_step > 0) return capped(Scalar(m) * opt.first_step, traj.omega, m);
     const auto& scene = stepper.scene();
     const State<Scalar>& y0 = traj;
     const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
@@ -497,7 +527,7 @@ struct AdaptiveLoop {
     const Scalar dm = std::max(d1, d2);
     const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
                                           : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
-    return capped(std::min(Scalar(100) * h0, h1), w0);
+    return capped(Scalar(m) * std::min(Scalar(100) * h0, h1), w0, m);
   }
 
   /// The observer: observer(a, b), or observer(a, b, summary) for one that wants the counts.
@@ -592,11 +622,11 @@ struct AdaptiveLoop {
     return (e_rot.squaredNorm() / (s_rot * s_rot) + e_om.squaredNorm() / (s_om * s_om)) / Scalar(2);
   }
 
-  /// One attempt of size h ending at t_next: on success `next` holds the state the run
-  /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/2}²(y) with doubling) and the
+  /// One attempt of span h ending at t_next: on success `next` holds the state the run
+  /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/m}^m(y) with Richardson's) and the
   /// return value is r², r the error per unit step; on failure the status is set, traj untouched.
   Scalar attempt(Scalar h, Scalar t_next, Traj& next, StepStatus& status) {
-    if (!use_defect) return attempt_doubling(h, next, status);
+    if (!use_defect) return attempt_richardson(h, next, status);
     // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
     // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
     const bool quintic_estimate = defect_rule != DefectRule::simpson;
@@ -628,27 +658,42 @@ struct AdaptiveLoop {
       if (use_defect) static_cast<State<Scalar>&>(traj) = start_state;
   }
 
-  /// Step doubling: `fine` = Ψ_{h/2}²(y), the estimate (Ψ_{h/2}² − Ψ_h)/(2^p − 1).
-  Scalar attempt_doubling(Scalar h, Traj& fine, StepStatus& status) {
-    assign(doubling_coarse, traj);
+  /// Richardson's attempt [A8]: `fine` = Ψ_{h/m}^m(y), the run's m steps (their first m − 1
+  /// states kept in `substates` for the dense output), against one coarse step Ψ_h(y); the
+  /// estimate (Ψ_{h/m}^m − Ψ_h)/(m^p − 1) of the m steps' error.
+  Scalar attempt_richardson(Scalar h, Traj& fine, StepStatus& status) {
+    assign(coarse, traj);
     assign(fine, traj);
-    StepReport<Scalar> r = stepper.step(doubling_coarse, h);
+    StepReport<Scalar> r = stepper.step(coarse, h);
     sum.iterations += r.iterations;
     ++sum.base_steps;
-    if (r.ok()) {
-      const Scalar half = h / Scalar(2);
-      r = stepper.step(fine, half);
+    const Scalar h_step = h / Scalar(m);
+    const bool keep = dense();
+    for (int j = 0; j < m && r.ok(); ++j) {
+      r = stepper.step(fine, h_step);
       sum.iterations += r.iterations;
       ++sum.base_steps;
-      if (r.ok()) {
-        r = stepper.step(fine, half);
-        sum.iterations += r.iterations;
-        ++sum.base_steps;
-      }
+      if (keep && j + 1 < m) substates[static_cast<std::size_t>(j)] = static_cast<const State<Scalar>&>(fine);
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
-    return error_per_unit_step(traj, doubling_coarse, fine, h);
+    return error_per_unit_step(traj, coarse, fine, h);
+  }
+
+  /// Commits an accepted attempt ending at t_next: the defect's one step, or Richardson's m
+  /// steps, each with its dense node and events where they are wanted. False when a
+  /// terminal event ended the run.
+  bool commit_attempt(Traj& next, Scalar t_next) {
+    if (use_defect) return commit(next, t_next, true, in_place);
+    if (dense()) {
+      assign(substep, next);  // the memory (a hint, or constant along the attempt)
+      for (int j = 0; j + 1 < m; ++j) {
+        const State<Scalar>& s = substates[static_cast<std::size_t>(j)];
+        static_cast<State<Scalar>&>(substep) = s;
+        if (!commit(substep, s.time, false, false, false)) return false;
+      }
+    }
+    return commit(next, t_next);
   }
 
   /// Commits `next` (ending at t_next), reports the step and its events. Returns false when
@@ -656,14 +701,17 @@ struct AdaptiveLoop {
   /// `node_b_ready`: node_b (and attempt_segment) belong to the step's end (the defect
   /// estimate). `stepped_in_place`: the step's end is already `traj` (the defect attempt on
   /// a hint memory) and its start is `start_state`; otherwise the end is `next`.
-  bool commit(Traj& next, Scalar t_next, bool node_b_ready = false, bool stepped_in_place = false) {
+  /// `attempt_end`: false for the inner steps of Richardson's attempt, which the hold skips
+  /// (it would be lost: the attempt's next steps were taken from the unheld state).
+  bool commit(Traj& next, Scalar t_next, bool node_b_ready = false, bool stepped_in_place = false,
+              bool attempt_end = true) {
     Traj& now = stepped_in_place ? traj : next;
     now.time = t_next;
     // [A7] after the error test (the estimate judges the scheme's step, not the nudge); the
     // end node is then evaluated afresh at the held state, so that the events' segment, the
     // observer, the dense solution and the next step all start from the state kept.
     bool held_now = false;
-    if (hold.active() && ++since_hold == hold_period) {
+    if (attempt_end && hold.active() && ++since_hold == hold_period) {
       since_hold = 0;
       held(now);
       held_now = true;
@@ -746,17 +794,34 @@ struct AdaptiveLoop {
   }
 
   // ---- tolerance mode [A3] --------------------------------------------------------------
+  /// Whether the scheme's error scales with the load (SchemeTraits::error_scales_with_load).
+  static bool error_scales_with_load(const Stepper& st) {
+    if constexpr (requires { st.scheme(); }) return traits_of(st.scheme()).error_scales_with_load;
+    else return false;
+  }
+
+  /// The estimate of opt.estimate: the defect, or Richardson's with its m [A8].
+  void choose_estimate() {
+    const int p = stepper.order();
+    ErrorEstimate e = opt.estimate;
+    if (e == ErrorEstimate::automatic)
+      e = error_scales_with_load(stepper) ? ErrorEstimate::richardson : p <= 6 ? ErrorEstimate::defect : ErrorEstimate::doubling;
+    use_defect = e == ErrorEstimate::defect;
+    m = use_defect ? 1 : e == ErrorEstimate::doubling ? 2 : opt.substeps != 0 ? opt.substeps : 8;
+    sum.substeps = m;
+  }
+
   void run_tolerance() {
     using std::abs;
     using std::pow;
     using std::sqrt;
     const Scalar dir = direction();
     const int p = stepper.order();
+    choose_estimate();
     Scalar h = dir * first_step();
     Scalar r2_prev = Scalar(1), h_prev = h;
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
-    use_defect = opt.estimate == ErrorEstimate::defect || (opt.estimate == ErrorEstimate::automatic && p <= 6);
     defect_rule = p <= 2 ? DefectRule::simpson : DefectRule::hermite;  // [D4]
     Traj next = traj;
     std::int64_t attempts = 0;
@@ -765,7 +830,7 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::failed;
         return;
       }
-      h = dir * capped(abs(h), traj.omega);
+      h = dir * capped(abs(h), traj.omega, m);
       bool last = false;
       const Scalar h_clipped = clip(h, last);
       if (too_small(h_clipped) && !last) {
@@ -810,9 +875,9 @@ struct AdaptiveLoop {
         f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
       growth_cap = opt.max_factor;
-      ++sum.accepted;
-      sum.h_last = h_try;
-      if (!commit(next, t_next, use_defect, use_defect && in_place)) break;
+      sum.accepted += m;
+      sum.h_last = h_try / Scalar(m);
+      if (!commit_attempt(next, t_next)) break;
       r2_prev = rr2;
       h_prev = h_try;
       have_prev = true;

@@ -121,6 +121,12 @@ struct SchemeTraits {
   bool symmetric = false;
   /// What it keeps exactly on a kind of scene.
   Keeps (*keeps)(SceneKind) = keeps_nothing;
+  /// Its error scales with the load (the part of H it does not flow exactly), not with the
+  /// motion's derivatives: the spin-exact splitting. An interpolant's defect, which sees the
+  /// derivatives, overestimates such an error, by up to 10⁵ on the tops; the adaptive
+  /// driver's automatic error estimate is then Richardson's, from the scheme's own steps
+  /// (drivers/adaptive.hpp, docs/theory.md [A8]).
+  bool error_scales_with_load = false;
   /// On a scene with a time-dependent potential (gravity gradient) the energy is the Jacobi
   /// integral E_J [G4]: `keeps(...).energy` counts there only if this is set (the
   /// energy-projected splitting); the implicit schemes freeze t at the mid time.

@@ -218,6 +218,7 @@ struct SplittingScheme {
                          .momentum_map = true,
                          .spatial_momentum = !s.has_potential && !s.has_applied_torque};
           },
+      .error_scales_with_load = true,
       .keeps_jacobi_integral = EnergyProjection,
       .memory = EnergyProjection ? MemoryUse::carried : MemoryUse::hint,
       .writes_memory_on_success = true,

@@ -289,6 +289,19 @@ TEST_CASE("adaptive: Richardson's steps are the scheme's steps, each a dense nod
               run.states.size(), worst, worst_mid);
   CHECK(worst <= 1e-12);
   CHECK(worst_mid <= 1e-14);
+  // A terminal event inside an attempt ends the run there: the steps after it are neither
+  // reported nor counted, and the last state is a real step to the event time (μ exact).
+  const std::vector<Event<double>> ev{events::by_name(c.scene, "nutation-min", 2)};
+  const AdaptiveRun<double> stop = solve(stepper, c.initial, 2.0, opt, {}, ev);
+  REQUIRE(stop.success());
+  REQUIRE(stop.summary.status == AdaptiveStatus::event);
+  REQUIRE(stop.events[0].size() == 2);
+  CHECK(static_cast<std::int64_t>(stop.states.size()) == stop.summary.accepted + 1);
+  CHECK(stop.states.back().time == stop.events[0].back().time);
+  const double mu0 = c.scene.momentum_map(c.initial);
+  CHECK(std::abs(c.scene.momentum_map(stop.states.back()) - mu0) <= 1e-13 * std::abs(mu0));
+  std::printf("HT1 splitting Suzuki-5, Richardson: the 2nd tilt minimum at t = %.12f ends the run after %lld steps\n",
+              stop.events[0].back().time, static_cast<long long>(stop.summary.accepted));
 }
 
 TEST_CASE("adaptive: a damped spin-down takes 3x fewer steps than the best fixed h", "[adaptive]") {

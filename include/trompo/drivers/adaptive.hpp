@@ -683,16 +683,25 @@ struct AdaptiveLoop {
   /// Commits an accepted attempt ending at t_next: the defect's one step, or Richardson's m
   /// steps, each with its dense node and events where they are wanted. False when a
   /// terminal event ended the run.
+  /// Counts each step as accepted before it is committed (a terminal event in an inner step
+  /// leaves the rest uncounted).
   bool commit_attempt(Traj& next, Scalar t_next) {
-    if (use_defect) return commit(next, t_next, true, in_place);
-    if (dense()) {
-      assign(substep, next);  // the memory (a hint, or constant along the attempt)
-      for (int j = 0; j + 1 < m; ++j) {
-        const State<Scalar>& s = substates[static_cast<std::size_t>(j)];
-        static_cast<State<Scalar>&>(substep) = s;
-        if (!commit(substep, s.time, false, false, false)) return false;
-      }
+    if (use_defect) {
+      ++sum.accepted;
+      return commit(next, t_next, true, in_place);
     }
+    if (!dense()) {
+      sum.accepted += m;
+      return commit(next, t_next);
+    }
+    assign(substep, next);  // the memory (a hint, or constant along the attempt)
+    for (int j = 0; j + 1 < m; ++j) {
+      const State<Scalar>& s = substates[static_cast<std::size_t>(j)];
+      static_cast<State<Scalar>&>(substep) = s;
+      ++sum.accepted;
+      if (!commit(substep, s.time, false, false, false)) return false;
+    }
+    ++sum.accepted;
     return commit(next, t_next);
   }
 
@@ -875,7 +884,6 @@ struct AdaptiveLoop {
         f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
       growth_cap = opt.max_factor;
-      sum.accepted += m;
       sum.h_last = h_try / Scalar(m);
       if (!commit_attempt(next, t_next)) break;
       r2_prev = rr2;

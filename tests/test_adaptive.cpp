@@ -298,6 +298,7 @@ TEST_CASE("adaptive: Richardson's steps are the scheme's steps, each a dense nod
   REQUIRE(stop.events[0].size() == 2);
   CHECK(static_cast<std::int64_t>(stop.states.size()) == stop.summary.accepted + 1);
   CHECK(stop.states.back().time == stop.events[0].back().time);
+  CHECK(stop.summary.accepted % 8 != 0);  // the event fell inside an attempt: the case this checks
   const double mu0 = c.scene.momentum_map(c.initial);
   CHECK(std::abs(c.scene.momentum_map(stop.states.back()) - mu0) <= 1e-13 * std::abs(mu0));
   std::printf("HT1 splitting Suzuki-5, Richardson: the 2nd tilt minimum at t = %.12f ends the run after %lld steps\n",
@@ -685,6 +686,63 @@ TEST_CASE("adaptive: backward runs", "[adaptive]") {
   std::printf("HT1 backward to -0.5: %zu tilt maxima found, %zu expected\n", run.events[0].size(), expected);
   CHECK(run.events[0].size() == expected);
   CHECK(expected > 0);
+}
+
+TEST_CASE("adaptive: Richardson's estimate backward, on an implicit scheme, and on carried memory", "[adaptive]") {
+  const auto c = cases::ht1();
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-9;
+  {  // the splitting forward to 2 and back: the start again within the tolerance
+    Stepper<Splitting, Top> stepper(Splitting(SplittingMethod::suzuki_5), c.scene);
+    State<double> s = c.initial;
+    REQUIRE(integrate_adaptive(stepper, s, 2.0, opt).ok());
+    const auto back = integrate_adaptive(stepper, s, 0.0, opt);
+    REQUIRE(back.ok());
+    CHECK(s.time == 0.0);
+    const double e = std::max((c.initial.rotation.inverse() * s.rotation).log().norm(), (s.omega - c.initial.omega).norm() / 50);
+    std::printf("HT1 splitting Suzuki-5, Richardson, forward to 2 and back: %lld steps back, error %.2e\n",
+                static_cast<long long>(back.accepted), e);
+    CHECK(e <= 30 * 2 * 1e-9);
+  }
+  {  // Simo-kappa with Richardson's estimate (m = 4): its coarse step, a Newton step, within the
+     // rotation cap (3 rad); H and mu exact
+    ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 4);
+    AdaptiveOptions<double> r = opt;
+    r.rtol = r.atol = 1e-4;  // loose: the cap binds
+    r.estimate = ErrorEstimate::richardson;
+    r.substeps = 4;
+    double widest = 0;
+    auto obs = [&](const DenseNode<double>& a, const DenseNode<double>& b) {
+      widest = std::max(widest, std::abs(b.state.time - a.state.time) * a.state.omega.norm());
+    };
+    State<double> s = c.initial;
+    const auto sum = integrate_adaptive(stepper, s, 2.0, r, obs);
+    REQUIRE(sum.ok());  // coarse steps whose Newton iteration fails are retried shorter
+    CHECK(4 * widest <= 3.0 * 1.01);  // the coarse step (m kept steps) within the cap, |Ω| varying by < 1 %
+    CHECK(std::abs(c.scene.energy(s) / c.scene.energy(c.initial) - 1) <= 1e-13);
+    std::printf("HT1 Simo-kappa o4, Richardson m = 4, rtol 1e-4: %lld steps, %lld failed attempts, widest kept step %.3f rad\n",
+                static_cast<long long>(sum.accepted), static_cast<long long>(sum.failures), widest);
+  }
+  {  // Lie generalised-alpha (memory carried from step to step): a terminal event inside an
+     // attempt steps again from that inner step's own memory; the rows are its steps
+    Stepper<LieGenAlpha, Top> stepper(LieGenAlpha(0.8), c.scene);
+    AdaptiveOptions<double> r = opt;
+    r.rtol = r.atol = 1e-6;
+    r.estimate = ErrorEstimate::richardson;
+    r.substeps = 4;
+    const std::vector<Event<double>> ev{events::by_name(c.scene, "nutation-min", 1)};
+    const AdaptiveRun<double> run = solve(stepper, c.initial, 2.0, r, {}, ev);
+    REQUIRE(run.success());
+    REQUIRE(run.summary.status == AdaptiveStatus::event);
+    CHECK(static_cast<std::int64_t>(run.states.size()) == run.summary.accepted + 1);
+    CHECK(run.states.back().time == run.events[0].back().time);
+    const auto& g = c.scene.effect<UniformGravity<double>>();
+    const exact::LagrangeTop top(5, 1, g.Mgl(), c.initial.rotation.matrix(), c.initial.omega, g.up());
+    const double t_min = turning_points(top, 0, 2.0, false).front();
+    std::printf("HT1 gen-alpha, Richardson m = 4: the first tilt minimum at t = %.9f (closed form %.9f) after %lld steps\n",
+                run.events[0].back().time, t_min, static_cast<long long>(run.summary.accepted));
+    CHECK(std::abs(run.events[0].back().time - t_min) <= 1e-5);
+  }
 }
 
 TEST_CASE("adaptive: the failure contract", "[adaptive][robustness]") {

@@ -50,8 +50,10 @@ def test_richardson_for_the_splitting():
     # of 8); substeps=2 is accepted as a flag; the rows are the CLI's
     res = trompo.solve_ivp("ht1", (0, 2), rtol=1e-10, atol=1e-10, scheme="splitting", order=6)
     two = trompo.solve_ivp("ht1", (0, 2), rtol=1e-10, atol=1e-10, scheme="splitting", order=6, substeps=2)
-    assert res.success and two.success
+    defect = trompo.solve_ivp("ht1", (0, 2), rtol=1e-10, atol=1e-10, scheme="splitting", order=6, estimate="defect")
+    assert res.success and two.success and defect.success
     assert res.nsteps % 8 == 0 and two.nsteps % 2 == 0
+    assert 2 * res.nsteps <= defect.nsteps  # the defect overestimates the splitting's error
     code, cli, err = run_cli(["--case", "ht1", "--t-end", "2", "--scheme", "splitting", "--order", "6",
                               "--rtol", "1e-10", "--atol", "1e-10", "--substeps", "2"])
     assert code == 0

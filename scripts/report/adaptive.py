@@ -119,14 +119,14 @@ def at_floor(pts, held_by_cap):
     errors below 1e-8; above, a slow fall is the loose end's, not a floor). A point
     the rotation cap holds is compared with none (its error is its neighbour's, the steps being
     the same): a point after held ones is compared with the last point not held, and counts as
-    at the floor when its error is 1000x below its tolerance (the splitting with Richardson's
-    estimate on FB1, whose error is round-off at any step the cap allows)."""
+    at the floor when its error, below 1e-8, is 1000x below its tolerance (the splitting with
+    Richardson's estimate on FB1, whose error is round-off at any step the cap allows)."""
     e = [b["err_rot"] for _, b in pts]
     tols = [t for t, _ in pts]
     out, floor, last = [], False, None
     for k in range(len(e)):
         if not held_by_cap[k]:
-            floor = floor or e[k] < 1e-3 * tols[k] or (
+            floor = floor or (e[k] < 1e-8 and e[k] < 1e-3 * tols[k]) or (
                 last is not None and e[k] < 1e-8 and not (e[k] < e[last] / 3 ** (k - last)))
             last = k
         out.append(floor)
@@ -351,7 +351,7 @@ def section(report_dir):
          "error is not tol). Where the accepted count stays within 5 % of the looser tolerance's, the rotation "
          "cap (3 rad a step) holds h and the tolerance does not set the steps; from the first point whose error "
          "falls less than 3× below the looser tolerance's (below 1e-8; comparing points the cap does not hold), "
-         "or from the first 1000× below its tolerance, the error sits at the round-off floor: both kinds of "
+         "or from the first below 1e-8 and 1000× below its tolerance, the error sits at the round-off floor: both kinds of "
          "points are left out of the ratios. \"time / fixed-h time\" and \"fixed-h steps / steps\" compare with the same method's fixed-h "
          "sweep at the same end error (log–log interpolation between its two neighbouring points). SPIN-DOWN, "
          "the case whose time scale varies (a free body J = diag(1, 2, 3) spun at 30 rad/s about its minor axis "

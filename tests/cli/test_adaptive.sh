@@ -25,7 +25,10 @@ check "--estimate doubling runs" '[ $rc -eq 0 ] && grep -q "reached t_end" "$tmp
 # the splitting: Richardson's estimate by default, m = 8 steps per attempt at order 6 (the
 # accepted count a multiple of 8); --substeps 2 takes about as many steps for the same tolerance
 "$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 >/dev/null 2>"$tmp/r.err"; rc=$?
-check "splitting, automatic (Richardson, m = 8): accepted a multiple of 8" '[ $rc -eq 0 ] && [ $(( $(steps "$tmp/r.err") % 8 )) -eq 0 ]'
+"$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 --estimate defect >/dev/null 2>"$tmp/rd.err"
+check "splitting, automatic (Richardson, m = 8): a multiple of 8 steps, under half the defect's" '[ $rc -eq 0 ] && [ $(( $(steps "$tmp/r.err") % 8 )) -eq 0 ] && [ $(( 2 * $(steps "$tmp/r.err") )) -le $(steps "$tmp/rd.err") ]'
+"$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 --estimate doubling --substeps 2 >/dev/null 2>/dev/null; rc=$?
+check "--estimate doubling --substeps 2 runs" '[ $rc -eq 0 ]'
 "$sim" --case ht1 --t-end 2 --scheme splitting --order 6 --rtol 1e-10 --atol 1e-10 --substeps 2 >/dev/null 2>"$tmp/r2.err"; rc=$?
 check "--substeps 2: even, within 1.5x of m = 8's steps" '[ $rc -eq 0 ] && [ $(( $(steps "$tmp/r2.err") % 2 )) -eq 0 ] && [ $(( 2 * $(steps "$tmp/r2.err") )) -le $(( 3 * $(steps "$tmp/r.err") )) ] && [ $(( 3 * $(steps "$tmp/r2.err") )) -ge $(( 2 * $(steps "$tmp/r.err") )) ]'
 
@@ -65,6 +68,7 @@ bad "--substeps 1" --case ht1 --rtol 1e-6 --scheme splitting --substeps 1
 bad "--substeps 17" --case ht1 --rtol 1e-6 --scheme splitting --substeps 17
 bad "--substeps 2.5" --case ht1 --rtol 1e-6 --scheme splitting --substeps 2.5
 bad "--substeps with --estimate defect" --case ht1 --rtol 1e-6 --estimate defect --substeps 4
+bad "--substeps 4 with --estimate doubling" --case ht1 --rtol 1e-6 --estimate doubling --substeps 4
 bad "--substeps without --rtol" --case ht1 --scheme splitting --substeps 4
 bad "--estimate unknown, splitting" --case ht1 --scheme splitting --rtol 1e-6 --estimate guess
 bad "--event unknown" --case ht1 --rtol 1e-6 --event wobble

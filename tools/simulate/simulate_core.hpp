@@ -276,7 +276,9 @@ inline bool parse_adaptive_flag(const std::string& flag, const std::string& valu
     a.estimate = value;
   } else if (flag == "--substeps") {
     const double m = parse_number(flag, value);
-    if (!(m >= 2 && m <= 16 && m == std::floor(m))) throw invalid_input("--substeps: must be an integer in [2, 16], got " + value);
+    constexpr int most = trompo::AdaptiveOptions<double>::max_substeps;
+    if (!(m >= 2 && m <= most && m == std::floor(m)))
+      throw invalid_input("--substeps: must be an integer in [2, " + std::to_string(most) + "], got " + value);
     a.substeps = static_cast<int>(m);
   } else if (flag == "--t-eval") {
     if (!value.empty() && value[0] == '@') {  // @FILE: one time a line (blank lines skipped)
@@ -534,8 +536,10 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
     throw invalid_input("--tol-scope: must be span or time, got '" + a.tol_scope + "'");
   if (a.estimate != "automatic" && a.estimate != "defect" && a.estimate != "richardson" && a.estimate != "doubling")
     throw invalid_input("--estimate: must be automatic, defect, richardson or doubling, got '" + a.estimate + "'");
-  if (flags.count("--substeps") && a.estimate != "richardson" && a.estimate != "automatic")
-    throw invalid_input("--substeps: only with --estimate richardson or automatic, got --estimate " + a.estimate);
+  if (flags.count("--substeps") && a.estimate == "defect")
+    throw invalid_input("--substeps: Richardson's steps per attempt; --estimate defect takes none");
+  if (flags.count("--substeps") && a.estimate == "doubling" && a.substeps != 2)
+    throw invalid_input("--substeps: --estimate doubling takes 2, got " + flags.at("--substeps"));
   if (!c.ensemble.empty()) throw invalid_input("--rtol: adaptive steps are not available with --ensemble");
   if (c.scheme == "exact") throw invalid_input("--rtol: --scheme exact has no steps to adapt (use --t-eval with a scheme)");
   if (c.processed)

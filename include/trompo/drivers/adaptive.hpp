@@ -15,7 +15,7 @@
 // so whatever the scheme keeps (H and μ for Simo-κ, also in its compositions) stays exact
 // for the whole variable-step run; no extrapolated value is ever used (it would break H, μ).
 // The one correction is [A7]'s (`hold_invariants`, drivers/invariant_hold.hpp): after the
-// error test of every 8th accepted step, a nudge of at most 64ε back onto the first state's
+// error test of every 8th accepted attempt (a step; with Richardson's estimate, m), a nudge of at most 64ε back onto the first state's
 // H and μ (π), which stops round-off's √N·ε walk over long runs. Three error estimates (`AdaptiveOptions::estimate`):
 //  - defect (default up to order 6) [D4]: the step Ψ_h(y) is taken once; its local error is
 //    the integral of the defect u' − f(u) of the step's Lie–Hermite interpolant u (cubic at
@@ -27,11 +27,13 @@
 //    an attempt is m steps of h (the run advancing with them) and one coarse step of m·h from
 //    the same start, e = (Ψ_h^m − Ψ_{mh})/(m^p − 1): the scheme's own error, whatever its
 //    size, at 1/m of a step per step (m = `substeps`, 8 unless given);
-//  - doubling (orders above 6): Richardson's with m = 2, Ψ_h(y) and Ψ_{h/2}∘Ψ_{h/2}(y);
-//    three steps per attempt of two.
-// With Richardson's estimate h, first_step, max_step and max_rotation are those of the
-// steps the run advances with (an attempt spans m of them), `accepted` counts them, and
-// each has its dense node; the controller acts once per attempt.
+//  - doubling (orders above 6): Richardson's with m = 2, Ψ_{2h}(y) against Ψ_h∘Ψ_h(y);
+//    three steps for the two kept (above order 6 a given `substeps` makes it Richardson's).
+// With Richardson's estimate h, first_step and max_step are those of the steps the run
+// advances with (an attempt spans m of them), `accepted` counts them, and each has its
+// dense node; the controller acts once per attempt. The rotation cap bounds the coarse step,
+// except for the splitting, whose exact free flow may turn m times as far (then it bounds
+// the kept steps).
 // The estimate is measured in the frame-invariant RMS norm [A2] and divided by |h| (error
 // per unit step), so that the global error is ∝ tol.
 // Söderlind's H211b filter [A3] picks the next h; a rejected step retries with the
@@ -51,7 +53,7 @@
 // density ρ updated explicitly and symmetrically from the control function
 // Q(y) = √(|Ω|² + ω₀²) (the rotation per step ≈ ε), G = d/dt log Q = Ω·Ω̇/Q². Q is even
 // under the reversal (Λ, Ω) ↦ (Λ, −Ω) of the conservative tops, and G odd, as the method
-// requires. ε is set from the tolerance by a pilot of 20 tolerance-mode steps (mean of h·Q)
+// requires. ε is set from the tolerance by a pilot of 20 tolerance-mode attempts (mean of h·Q)
 // unless given. Only the last step is shortened to land on t_end.
 //
 // Events [A6] (SciPy's semantics). g(t, Λ, Ω) is sampled at the step ends and at three
@@ -110,7 +112,8 @@ struct AdaptiveOptions {
   /// the defect up to order 6 and doubling above).
   ErrorEstimate estimate = ErrorEstimate::automatic;
   /// Richardson's estimate: the steps m per attempt, 2 … 16 (0: 8; doubling is m = 2;
-  /// ignored where automatic picks the defect) [A8].
+  /// ignored where automatic picks the defect; above order 6 automatic takes Richardson's
+  /// with this m instead of doubling) [A8].
   int substeps = 0;
   /// Tolerance mode: true (default) — the tolerances bound the error at the end of the span
   /// T = |t_end − t₀|: the error per unit step is held to tol/T, so that the end error,
@@ -134,7 +137,7 @@ struct AdaptiveOptions {
   /// Dense output and events: quintic (else cubic) Lie–Hermite interpolant [D2].
   bool quintic = true;
   /// Hold what the stepper keeps (H, μ, π) at the first state's values against round-off
-  /// [A7] (drivers/invariant_hold.hpp): after every 8th accepted step a first-order
+  /// [A7] (drivers/invariant_hold.hpp): after every 8th accepted attempt a first-order
   /// correction of O(ε) removes the √N·ε walk of long runs. false: the steps' states as
   /// they come.
   bool hold_invariants = true;
@@ -420,7 +423,8 @@ struct AdaptiveLoop {
   using SceneOf = std::decay_t<decltype(std::declval<const Stepper&>().scene())>;
   /// What the run holds at the first state's values [A7] (nothing unless opt.hold_invariants).
   InvariantHold<SceneOf> hold{};
-  /// [A7] after every hold_period-th accepted step: round-off adds a few ε in between, and
+  /// [A7] after every hold_period-th accepted attempt (one step, or Richardson's m): round-off
+  /// adds a few ε in between, and
   /// the hold (336 instructions, and a fresh end node) costs +0.6 % of a Suzuki-5 step of
   /// Simo-κ instead of +4.5 % at every step.
   static constexpr int hold_period = 8;
@@ -458,10 +462,19 @@ struct AdaptiveLoop {
   }();
   State<Scalar> start_state{};  ///< the state before an in-place attempt
   Traj coarse{};                ///< Richardson's Ψ_{mh}, kept across attempts (assign copies the used memory)
-  /// Richardson's attempt: the states after its first m − 1 steps, for their dense nodes,
-  /// and the trajectory they are committed through.
-  std::array<State<Scalar>, AdaptiveOptions<Scalar>::max_substeps - 1> substates{};
+  /// Richardson's attempt: what its first m − 1 steps leave, for their dense nodes and
+  /// events: the state where the memory is a hint (the attempt's last memory serves them),
+  /// else the whole trajectory, memory and all (a terminal event in an inner step steps
+  /// again from there); and the trajectory the states are committed through.
+  using Inner = std::conditional_t<in_place, State<Scalar>, Traj>;
+  std::array<Inner, AdaptiveOptions<Scalar>::max_substeps - 1> substates{};
   Traj substep{};
+  /// Steps in the current attempt: m, or 1 for a last attempt too short to divide.
+  int attempt_m = 1;
+  /// The coarse step may turn m times the rotation cap: the scheme's error scales with the
+  /// load (the splitting's free flow is exact at any angle). Otherwise the cap bounds the
+  /// coarse step, which for an implicit scheme must keep its Newton increments below π.
+  bool coarse_turns_freely = false;
   DenseNode<Scalar> node_a{}, node_b{};
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
@@ -485,20 +498,22 @@ struct AdaptiveLoop {
   /// (fine − coarse)/(m^p − 1) of an attempt of span h.
   Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse_end, const State<Scalar>& fine,
                              Scalar h) const {
-    const Scalar k = integer_power(Scalar(m), stepper.order()) - Scalar(1);  // m^p − 1
+    if (attempt_m == 1) return Scalar(0);  // a few ulp of t: nothing to estimate
+    const Scalar k = integer_power(Scalar(attempt_m), stepper.order()) - Scalar(1);  // m^p − 1
     const Vector3 e_rot = (coarse_end.rotation.inverse() * fine.rotation).log() / k;
     const Vector3 e_om = (fine.omega - coarse_end.omega) / k;
     return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
   }
 
   /// The span |h| (≥ 0) of `steps` steps, each within max_step and the rotation cap
-  /// |h||Ω| ≤ max_rotation, tested on squares: the square root and the division only when
-  /// the rotation cap binds (between steps they would wait on the step's end).
+  /// |h||Ω| ≤ max_rotation (the span within the cap unless the coarse step turns freely),
+  /// tested on squares: the square root and the division only when the rotation cap binds
+  /// (between steps they would wait on the step's end).
   Scalar capped(Scalar h_abs, const Vector3& omega, int steps = 1) const {
     using std::sqrt;
     const Scalar k = Scalar(steps);
     h_abs = std::min(h_abs, k * opt.max_step);
-    const Scalar w2 = omega.squaredNorm(), turn = k * opt.max_rotation;
+    const Scalar w2 = omega.squaredNorm(), turn = (coarse_turns_freely ? k : Scalar(1)) * opt.max_rotation;
     if (h_abs * h_abs * w2 > turn * turn) h_abs = turn / sqrt(w2);
     return h_abs;
   }
@@ -667,13 +682,18 @@ struct AdaptiveLoop {
     StepReport<Scalar> r = stepper.step(coarse, h);
     sum.iterations += r.iterations;
     ++sum.base_steps;
-    const Scalar h_step = h / Scalar(m);
+    // a last attempt of a few ulp of t is one step (its inner times would coincide)
+    attempt_m = too_small(h / Scalar(m)) ? 1 : m;
+    const Scalar h_step = h / Scalar(attempt_m);
     const bool keep = dense();
-    for (int j = 0; j < m && r.ok(); ++j) {
+    for (int j = 0; j < attempt_m && r.ok(); ++j) {
       r = stepper.step(fine, h_step);
       sum.iterations += r.iterations;
       ++sum.base_steps;
-      if (keep && j + 1 < m) substates[static_cast<std::size_t>(j)] = static_cast<const State<Scalar>&>(fine);
+      if (keep && j + 1 < attempt_m) {
+        if constexpr (in_place) substates[static_cast<std::size_t>(j)] = static_cast<const State<Scalar>&>(fine);
+        else assign(substates[static_cast<std::size_t>(j)], fine);
+      }
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
@@ -691,15 +711,21 @@ struct AdaptiveLoop {
       return commit(next, t_next, true, in_place);
     }
     if (!dense()) {
-      sum.accepted += m;
+      sum.accepted += attempt_m;
       return commit(next, t_next);
     }
-    assign(substep, next);  // the memory (a hint, or constant along the attempt)
-    for (int j = 0; j + 1 < m; ++j) {
-      const State<Scalar>& s = substates[static_cast<std::size_t>(j)];
-      static_cast<State<Scalar>&>(substep) = s;
+    if constexpr (in_place) assign(substep, next);  // the memory, a hint
+    for (int j = 0; j + 1 < attempt_m; ++j) {
+      Traj& inner = [&]() -> Traj& {
+        if constexpr (in_place) {
+          static_cast<State<Scalar>&>(substep) = substates[static_cast<std::size_t>(j)];
+          return substep;
+        } else {
+          return substates[static_cast<std::size_t>(j)];
+        }
+      }();
       ++sum.accepted;
-      if (!commit(substep, s.time, false, false, false)) return false;
+      if (!commit(inner, inner.time, false, false, false)) return false;
     }
     ++sum.accepted;
     return commit(next, t_next);
@@ -813,11 +839,16 @@ struct AdaptiveLoop {
   void choose_estimate() {
     const int p = stepper.order();
     ErrorEstimate e = opt.estimate;
-    if (e == ErrorEstimate::automatic)
-      e = error_scales_with_load(stepper) ? ErrorEstimate::richardson : p <= 6 ? ErrorEstimate::defect : ErrorEstimate::doubling;
+    if (e == ErrorEstimate::automatic)  // above order 6: doubling, or Richardson's with the m given
+      e = error_scales_with_load(stepper) ? ErrorEstimate::richardson
+          : p <= 6                        ? ErrorEstimate::defect
+          : opt.substeps != 0             ? ErrorEstimate::richardson
+                                          : ErrorEstimate::doubling;
     use_defect = e == ErrorEstimate::defect;
-    m = use_defect ? 1 : e == ErrorEstimate::doubling ? 2 : opt.substeps != 0 ? opt.substeps : 8;
+    m = use_defect ? 1 : opt.substeps != 0 ? opt.substeps : e == ErrorEstimate::doubling ? 2 : 8;
+    attempt_m = m;
     sum.substeps = m;
+    coarse_turns_freely = !use_defect && error_scales_with_load(stepper);
   }
 
   void run_tolerance() {
@@ -884,7 +915,7 @@ struct AdaptiveLoop {
         f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
       growth_cap = opt.max_factor;
-      sum.h_last = h_try / Scalar(m);
+      sum.h_last = h_try / Scalar(attempt_m);
       if (!commit_attempt(next, t_next)) break;
       r2_prev = rr2;
       h_prev = h_try;
@@ -994,7 +1025,7 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
     options.validate();
     if (options.estimate == ErrorEstimate::defect && stepper.order() > 6)
       detail::fail("adaptive: estimate = defect suits schemes of order <= 6 (the quintic interpolant's own error "
-                   "enters at O(h^7)); use doubling or automatic, got order ", stepper.order());
+                   "enters at O(h^7)); use richardson, doubling or automatic, got order ", stepper.order());
     if (!std::isfinite(static_cast<double>(t_end))) detail::fail("adaptive: t_end must be finite, got ", t_end);
     state.validate();
     detail::AdaptiveLoop<Stepper, StateT, Observer, Sink> loop(stepper, state, t_end, options, observer, sink, event_list);
@@ -1006,7 +1037,7 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
     } else {
       Scalar epsilon = options.epsilon;
       if (epsilon == Scalar(0)) {
-        // Pilot [A5]: 20 tolerance-mode steps on a copy; ε = mean of |h|·Q along them.
+        // Pilot [A5]: 20 tolerance-mode attempts on a copy; ε = mean of |h|·Q along their steps.
         StateT pilot = state;
         AdaptiveOptions<Scalar> po = options;
         po.control = StepControl::tolerance;

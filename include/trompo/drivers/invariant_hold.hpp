@@ -6,7 +6,7 @@
 // invariants walk like √N·ε over N steps (Brouwer's law: 2.7e-13 after 2.7·10⁶ steps of
 // Simo-κ on HT0 at h = 3.7e-6, fixed h, double). The adaptive driver's tight tolerances at
 // order 2 make such runs ordinary. It therefore corrects the state (after every 8th accepted
-// step, drivers/adaptive.hpp), to first order, back onto the first values — only what the
+// attempt, drivers/adaptive.hpp), to first order, back onto the first values — only what the
 // stepper keeps on this scene, only where the scene has these invariants (H: no applied
 // torque, no time-dependent potential; μ about γ: every potential a uniform gravity about the
 // one axis γ, rotors allowed — a general potential has no such μ), and only a correction of

@@ -690,14 +690,28 @@ struct AdaptiveLoop {
       r = stepper.step(fine, h_step);
       sum.iterations += r.iterations;
       ++sum.base_steps;
-      if (keep && j + 1 < attempt_m) {
-        if constexpr (in_place) substates[static_cast<std::size_t>(j)] = static_cast<const State<Scalar>&>(fine);
-        else assign(substates[static_cast<std::size_t>(j)], fine);
-      }
+      if (keep && j + 1 < attempt_m) keep_inner(j, fine);
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
     return error_per_unit_step(traj, coarse, fine, h);
+  }
+
+  /// Keeps what the j-th inner step of Richardson's attempt left (`substates`).
+  void keep_inner(int j, const Traj& fine) {
+    if constexpr (in_place) substates[static_cast<std::size_t>(j)] = static_cast<const State<Scalar>&>(fine);
+    else assign(substates[static_cast<std::size_t>(j)], fine);
+  }
+
+  /// The trajectory at the end of the j-th inner step, to commit: its state with the
+  /// attempt's memory (a hint) in `substep`, or the whole trajectory kept.
+  Traj& inner(int j) {
+    if constexpr (in_place) {
+      static_cast<State<Scalar>&>(substep) = substates[static_cast<std::size_t>(j)];
+      return substep;
+    } else {
+      return substates[static_cast<std::size_t>(j)];
+    }
   }
 
   /// Commits an accepted attempt ending at t_next: the defect's one step, or Richardson's m
@@ -716,16 +730,9 @@ struct AdaptiveLoop {
     }
     if constexpr (in_place) assign(substep, next);  // the memory, a hint
     for (int j = 0; j + 1 < attempt_m; ++j) {
-      Traj& inner = [&]() -> Traj& {
-        if constexpr (in_place) {
-          static_cast<State<Scalar>&>(substep) = substates[static_cast<std::size_t>(j)];
-          return substep;
-        } else {
-          return substates[static_cast<std::size_t>(j)];
-        }
-      }();
+      Traj& step_end = inner(j);
       ++sum.accepted;
-      if (!commit(inner, inner.time, false, false, false)) return false;
+      if (!commit(step_end, step_end.time, false, false, false)) return false;
     }
     ++sum.accepted;
     return commit(next, t_next);

@@ -6,4 +6,5 @@
 #include "trompo/drivers/ensemble.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/drivers/invariant_hold.hpp"
+#include "trompo/drivers/sampled.hpp"
 #include "trompo/steppers.hpp"

@@ -42,12 +42,18 @@ struct DenseNode {
   bool second = false;
 };
 
-/// Ω̇ from the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r, given the body torque τ [D3].
+/// Ω̇ from the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r, given the body torque τ [D3];
+/// with wheels Π = J_hubΩ + h_w(t) and the motors' reaction −ḣ_w adds to τ [W1].
 template <class Scene>
 Eigen::Matrix<typename Scene::Scalar, 3, 1> euler_rate(const Scene& scene,
                                                        const Eigen::Matrix<typename Scene::Scalar, 3, 1>& omega,
-                                                       const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque) {
-  return scene.body().inertia_inverse() * (scene.momentum(omega).cross(omega) + torque);
+                                                       const Eigen::Matrix<typename Scene::Scalar, 3, 1>& torque,
+                                                       typename Scene::Scalar t) {
+  if constexpr (Scene::has_wheels)
+    return scene.body().inertia_inverse() *
+           (scene.momentum(omega, t).cross(omega) - scene.wheel_momentum_rate() + torque);
+  else
+    return scene.body().inertia_inverse() * (scene.momentum(omega).cross(omega) + torque);
 }
 
 /// Ω̇ of the scene at (Λ, Ω, t), Λ as a matrix: euler_rate with the scene's body torque.
@@ -58,10 +64,10 @@ Eigen::Matrix<typename Scene::Scalar, 3, 1> omega_rate(const Scene& scene,
                                                        typename Scene::Scalar t) {
   using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
   if constexpr (Scene::has_potential || Scene::has_applied_torque)
-    return euler_rate(scene, omega, scene.body_torque(rotation, omega, t));
+    return euler_rate(scene, omega, scene.body_torque(rotation, omega, t), t);
   else {
-    (void)rotation, (void)t;
-    return euler_rate(scene, omega, Vector3::Zero().eval());  // no torque
+    (void)rotation;
+    return euler_rate(scene, omega, Vector3::Zero().eval(), t);  // no torque
   }
 }
 /// Ω̇ of the scene at the state s.
@@ -87,7 +93,12 @@ void set_second_rate(const Scene& scene, const Eigen::Matrix<typename Scene::Sca
                      DenseNode<typename Scene::Scalar>& n) {
   using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
   const State<typename Scene::Scalar>& s = n.state;
-  Vector3 rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
+  Vector3 rhs;
+  if constexpr (Scene::has_wheels)  // Π̇ = JΩ̇ + ḣ_w [W1]
+    rhs = (scene.body().inertia() * n.omega_dot + scene.wheel_momentum_rate()).cross(s.omega) +
+          scene.momentum(s.omega, s.time).cross(n.omega_dot);
+  else
+    rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
   rhs += torque_rate;
   n.omega_ddot = scene.body().inertia_inverse() * rhs;
   n.second = true;
@@ -153,7 +164,7 @@ DenseNode<typename Scene::Scalar> dense_node(const Scene& scene, const State<typ
   if constexpr (detail::potential_only<Scene>) {
     const typename Scene::Caches c = scene.caches(s.rotation.matrix(), s.time);
     const Eigen::Matrix<typename Scene::Scalar, 3, 1> torque = scene.conservative_torque(c, Matrix3::Identity());
-    n.omega_dot = euler_rate(scene, s.omega, torque);
+    n.omega_dot = euler_rate(scene, s.omega, torque, s.time);
     if (second) detail::set_second_rate(scene, detail::potential_torque_rate(scene, c, torque, s.omega), n);
   } else {
     n.omega_dot = omega_rate(scene, s);
@@ -398,11 +409,11 @@ void defect_estimate(const Scene& scene, const DenseNode<typename Scene::Scalar>
       const Vector3 tau_n = scene.conservative_torque_rodrigues(caches, xi, ca, cb);
       const Vector3 xt = xi.cross(tau_n);
       const Vector3 tau = tau_n - ca * xt + cb * xi.cross(xt);
-      rate_omega += weights[i] * euler_rate(scene, omega, tau);
+      rate_omega += weights[i] * euler_rate(scene, omega, tau, seg.t_start() + nodes[i] * h);
     } else if constexpr (Scene::has_potential || Scene::has_applied_torque) {
       rate_omega += weights[i] * omega_rate(scene, seg.rotation_at(xi).matrix(), omega, seg.t_start() + nodes[i] * h);
     } else {
-      rate_omega += weights[i] * omega_rate(scene, Eigen::Matrix<Scalar, 3, 3>::Identity(), omega, seg.t_start());
+      rate_omega += weights[i] * omega_rate(scene, Eigen::Matrix<Scalar, 3, 3>::Identity(), omega, seg.t_start() + nodes[i] * h);
     }
   }
   e_rot = seg.phi() - h * rate_xi;

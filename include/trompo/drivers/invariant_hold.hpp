@@ -52,7 +52,8 @@ class InvariantHold {
   /// H without applied torques or a time-dependent potential, μ where every potential is a
   /// uniform gravity about the scene's momentum axis γ (rotors allowed), π on the free body.
   InvariantHold(const Scene& scene, const State<Scalar>& first, const Keeps& keeps) {
-    if constexpr (!Scene::has_applied_torque && !Scene::has_time_dependent_potential) {
+    // Wheels: H changes by the motors' work, so nothing is held (the schemes keep π exactly).
+    if constexpr (!Scene::has_applied_torque && !Scene::has_time_dependent_potential && !Scene::has_wheels) {
       energy_ = keeps.energy;
       momentum_map_ = keeps.momentum_map && !Scene::is_free && symmetric_about_axis(scene);
       spatial_momentum_ = keeps.spatial_momentum && Scene::is_free;
@@ -104,7 +105,7 @@ class InvariantHold {
     const Vector3 JGamma = J * Gamma;
     const Scalar GJG = Gamma.dot(JGamma);
     if (momentum_map_) {
-      const Scalar beta = (mu0_ - Gamma.dot(scene.momentum(s.omega))) / GJG;  // β = (μ₀ − μ)/(Γ·JΓ)
+      const Scalar beta = (mu0_ - Gamma.dot(scene.momentum(s.omega, s.time))) / GJG;  // β = (μ₀ − μ)/(Γ·JΓ)
       if (beta * beta * Gamma.squaredNorm() <= limit) s.omega += beta * Gamma;
     }
     if (energy_) {
@@ -124,7 +125,7 @@ class InvariantHold {
       if ((omega - s.omega).squaredNorm() <= nudge * nudge * s.omega.squaredNorm()) s.omega = omega;
     }
     if (energy_) {
-      const Vector3 Pi = scene.momentum(s.omega);
+      const Vector3 Pi = scene.momentum(s.omega, s.time);
       const Vector3 Pi_dot = Pi.cross(s.omega);
       const Scalar rate = Pi_dot.norm();
       if (!(rate > Scalar(0))) return;  // a steady spin about a principal axis

@@ -20,6 +20,13 @@ constexpr bool linear_or_not_potential() {
   if constexpr (std::is_same_v<typename E::kind, potential_kind>) return E::linear_in_rotation;
   else return true;
 }
+/// True for a rotor whose momentum depends on time (`time_dependent_rotor = true`: the
+/// reaction wheels, whose held motor torques change it linearly, reaction_wheels.hpp).
+template <class E>
+constexpr bool time_dependent_rotor_effect() {
+  if constexpr (requires { E::time_dependent_rotor; }) return static_cast<bool>(E::time_dependent_rotor);
+  else return false;
+}
 /// True for an effect that declares `static constexpr bool time_dependent = true`
 /// (a potential V(Λ, t): the gravity gradient of an orbit).
 template <class E>
@@ -51,8 +58,13 @@ class Scene {
   static constexpr bool has_potential = (is_kind<Effects, potential_kind> || ...);
   /// Some effect is an applied torque.
   static constexpr bool has_applied_torque = (is_kind<Effects, torque_kind> || ...);
-  /// Some effect is a rotor.
-  static constexpr bool has_rotor = (is_kind<Effects, rotor_kind> || ...);
+  /// Some effect is a rotor of constant momentum (Rotor).
+  static constexpr bool has_rotor =
+      ((is_kind<Effects, rotor_kind> && !detail::time_dependent_rotor_effect<Effects>()) || ...);
+  /// Some effect is a rotor whose momentum h_r(t) depends on time: reaction wheels
+  /// ([W1]–[W2]). Only schemes whose traits say `carries_wheels` step such a scene
+  /// (SchemeFor, scheme.hpp): the others would miss ḣ_r.
+  static constexpr bool has_wheels = (detail::time_dependent_rotor_effect<Effects>() || ...);
   /// Every potential is linear in Λ: the closed forms of Simo-κ (19) and [T2] apply.
   static constexpr bool potentials_linear = (detail::linear_or_not_potential<Effects>() && ...);
   /// Some potential depends on time (gravity gradient): energy() is then the Jacobi
@@ -72,6 +84,10 @@ class Scene {
   /// The effect of type E.
   template <class E>
   const E& effect() const { return std::get<E>(effects_); }
+  /// The effect of type E, to change between steps: the sampled driver moves the wheels'
+  /// hold and sets held commands here (drivers/sampled.hpp). Never during a step.
+  template <class E>
+  E& effect() { return std::get<E>(effects_); }
 
   /// Axis of the momentum map μ = γ·Λ(JΩ + h_r): the up vector of the first effect
   /// that has one (gravity), else e3.
@@ -83,14 +99,41 @@ class Scene {
   }
 
   // ---- invariants --------------------------------------------------------------------
-  /// Π = JΩ + h_r (body momentum; the rotor term only with a rotor effect).
+  /// Π = JΩ + h_r (body momentum; the rotor term only with a rotor effect). A scene with
+  /// wheels needs the time: momentum(Ω, t).
   Vector3 momentum(const Vector3& omega) const {
+    static_assert(!has_wheels, "Scene::momentum(omega): a scene with wheels has Π(Ω, t); call momentum(omega, t)");
     Vector3 p = body_.momentum(omega);
     if constexpr (has_rotor) p += rotor_momentum();
     return p;
   }
-  /// ½ Ω·JΩ (the rotor's own constant spin energy is left out).
+  /// Π = JΩ + h_r + h_w(t) at time t (h_w the wheels' momentum [W1]; t is read only by wheels).
+  Vector3 momentum(const Vector3& omega, Scalar t) const {
+    Vector3 p = body_.momentum(omega);
+    if constexpr (has_rotor) p += rotor_momentum();
+    if constexpr (has_wheels) p += wheel_momentum(t);
+    return p;
+  }
+  /// ½ Ω·JΩ (the rotor's own constant spin energy is left out; the wheels' is in energy()).
   Scalar kinetic_energy(const Vector3& omega) const { return body_.kinetic_energy(omega); }
+  /// Σ h_w(t) over the wheel effects (body frame) [W2].
+  Vector3 wheel_momentum(Scalar t) const {
+    Vector3 h = Vector3::Zero();
+    std::apply([&](const auto&... e) { ((add_wheels(e, t, h)), ...); }, effects_);
+    return h;
+  }
+  /// Σ ḣ_w over the wheel effects: constant over a hold; −ḣ_w is the motors' torque on the body.
+  Vector3 wheel_momentum_rate() const {
+    Vector3 r = Vector3::Zero();
+    std::apply([&](const auto&... e) { ((add_wheel_rate(e, r)), ...); }, effects_);
+    return r;
+  }
+  /// The wheels' kinetic energy Σ h_i(t)²/(2J_s,i) [W3] (0 without wheels).
+  Scalar wheel_energy(Scalar t) const {
+    Scalar e(0);
+    std::apply([&](const auto&... x) { ((add_wheel_energy(x, t, e)), ...); }, effects_);
+    return e;
+  }
   /// Σ V(Λ, t) over the potential effects (t matters only to a time-dependent potential).
   Scalar potential_energy(const SO3<Scalar>& rotation, Scalar t = Scalar(0)) const {
     if constexpr (has_potential) {
@@ -103,10 +146,13 @@ class Scene {
   /// The scene's energy-like invariant: H = ½ Ω·JΩ + V(Λ); with a time-dependent potential
   /// (gravity gradient) the Jacobi integral E_J = ½ Ω·JΩ + V(Λ, t) − n ô·π [G4].
   Scalar energy(const State<Scalar>& s) const {
+    Scalar wheels(0);
+    if constexpr (has_wheels) wheels = wheel_energy(s.time);  // [W3]
     if constexpr (has_time_dependent_potential) {
-      return kinetic_energy(s.omega) + potential_energy(s.rotation, s.time) + rotating_frame_energy(spatial_momentum(s));
+      return kinetic_energy(s.omega) + wheels + potential_energy(s.rotation, s.time) +
+             rotating_frame_energy(spatial_momentum(s));
     } else {
-      return kinetic_energy(s.omega) + potential_energy(s.rotation);
+      return kinetic_energy(s.omega) + wheels + potential_energy(s.rotation);
     }
   }
   /// Σ of the effects' rotating-frame terms (−n ô·π for a gravity gradient [G4]; 0 for
@@ -118,7 +164,7 @@ class Scene {
     return e;
   }
   /// π = Λ(JΩ + h_r), the spatial angular momentum about O.
-  Vector3 spatial_momentum(const State<Scalar>& s) const { return s.rotation * momentum(s.omega); }
+  Vector3 spatial_momentum(const State<Scalar>& s) const { return s.rotation * momentum(s.omega, s.time); }
   /// μ = γ·π, conserved under gravity about the up axis γ.
   Scalar momentum_map(const State<Scalar>& s) const { return momentum_axis().dot(spatial_momentum(s)); }
 
@@ -242,7 +288,19 @@ class Scene {
   }
   template <class E>
   static void add_rotor(const E& e, Vector3& h) {
-    if constexpr (is_kind<E, rotor_kind>) h += e.rotor_momentum();
+    if constexpr (is_kind<E, rotor_kind> && !detail::time_dependent_rotor_effect<E>()) h += e.rotor_momentum();
+  }
+  template <class E>
+  static void add_wheels(const E& e, Scalar t, Vector3& h) {
+    if constexpr (detail::time_dependent_rotor_effect<E>()) h += e.rotor_momentum(t);
+  }
+  template <class E>
+  static void add_wheel_rate(const E& e, Vector3& r) {
+    if constexpr (detail::time_dependent_rotor_effect<E>()) r += e.rotor_momentum_rate();
+  }
+  template <class E>
+  static void add_wheel_energy(const E& e, Scalar t, Scalar& x) {
+    if constexpr (detail::time_dependent_rotor_effect<E>()) x += e.rotor_energy(t);
   }
   template <class F>
   void for_each(F&& f, const Caches& c) const {

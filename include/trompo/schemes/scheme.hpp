@@ -86,6 +86,11 @@ struct SceneKind {
   bool has_applied_torque = false;  ///< some effect is an applied torque
   bool has_rotor = false;           ///< some effect is a rotor
   bool has_time_dependent_potential = false;  ///< some potential depends on t (gravity gradient)
+  bool has_wheels = false;          ///< some effect is a rotor of time-dependent momentum (wheels)
+
+  /// Wheels and no external load (no potential, no applied torque): the spacecraft whose
+  /// total momentum π = Λ(J_hubΩ + h_w) the wheel-carrying momentum schemes keep [W4].
+  constexpr bool wheels_only() const { return has_wheels && !has_potential && !has_applied_torque; }
 };
 
 /// The kind of Scene.
@@ -95,7 +100,8 @@ inline constexpr SceneKind scene_kind_v{.is_free = Scene::is_free,
                                         .potentials_linear = Scene::potentials_linear,
                                         .has_applied_torque = Scene::has_applied_torque,
                                         .has_rotor = Scene::has_rotor,
-                                        .has_time_dependent_potential = Scene::has_time_dependent_potential};
+                                        .has_time_dependent_potential = Scene::has_time_dependent_potential,
+                                        .has_wheels = Scene::has_wheels};
 
 /// What a scheme's memory is (its `Memory<Scene>`, scheme.hpp's file comment).
 enum class MemoryUse {
@@ -131,6 +137,10 @@ struct SchemeTraits {
   /// integral E_J [G4]: `keeps(...).energy` counts there only if this is set (the
   /// energy-projected splitting); the implicit schemes freeze t at the mid time.
   bool keeps_jacobi_integral = false;
+  /// It steps scenes with reaction wheels (Scene::has_wheels): its momentum balance reads the
+  /// wheels' h_w(t) at both ends of the step, Π_{n+1} − Π_n ∋ h_w(t_{n+1}) − h_w(t_n)
+  /// (docs/theory.md [W4]). A scheme without it is not a SchemeFor such a scene.
+  bool carries_wheels = false;
   /// What its Memory<Scene> is; none: the scheme declares no Memory.
   MemoryUse memory = MemoryUse::none;
   /// Its step changes the memory only on success, after checking `out` with
@@ -204,6 +214,7 @@ inline constexpr Keeps scheme_keeps_v = S::traits.keeps(scene_kind_v<Scene>);
 template <class S, class Scene>
 concept SchemeFor =
     std::copy_constructible<S> && detail::states_traits<S> && detail::members_as_declared<S, Scene> &&
+    (!Scene::has_wheels || S::traits.carries_wheels) &&
     std::default_initializable<scheme_memory_t<S, Scene>> && std::copyable<scheme_memory_t<S, Scene>> &&
     requires(const S& s, const Scene& scene, const State<typename Scene::Scalar>& in, typename Scene::Scalar h,
              const NewtonOptions<typename Scene::Scalar>& options, State<typename Scene::Scalar>& out,

@@ -15,17 +15,26 @@ struct StepData {
   const Scene& scene;
   Scalar h;
   Vector3 omega_n;                  ///< Ω_n
-  Vector3 Pi_n;                     ///< Π_n = JΩ_n + h_r
+  Vector3 Pi_n;                     ///< Π_n = JΩ_n + h_r (+ h_w(t_n), wheels)
+  Vector3 dh_w;                     ///< h_w(t_n + h) − h_w(t_n): the wheels' change over the step [W4] (0 without)
   Scalar Pi_n_norm;                 ///< ‖Π_n‖ (part of the residuals' scale)
   typename Scene::Caches caches;    ///< effects' per-step data (b = Λ_nᵀ𝐠 for gravity)
 
   StepData(const Scene& s, const State<Scalar>& st, Scalar step)
-      : scene(s), h(step), omega_n(st.omega), Pi_n(s.momentum(st.omega)), Pi_n_norm(Pi_n.norm()),
-        caches(s.caches(st.rotation.matrix(), st.time + step / 2)) {}
+      : scene(s), h(step), omega_n(st.omega), Pi_n(s.momentum(st.omega, st.time)), dh_w(wheel_change(s, st.time, step)),
+        Pi_n_norm(Pi_n.norm()), caches(s.caches(st.rotation.matrix(), st.time + step / 2)) {}
+
+  /// h_w(t + h) − h_w(t) [W4]: both ends as the scene gives them, so that Π_{n+1} of this step
+  /// and Π_n of the next agree to round-off.
+  static Vector3 wheel_change(const Scene& s, Scalar t, Scalar step) {
+    if constexpr (Scene::has_wheels) return s.wheel_momentum(t + step) - s.wheel_momentum(t);
+    else return Vector3::Zero();
+  }
 
   /// Ω̇_n from Euler's equations, J Ω̇ = Π × Ω + τ (explicit, for the predictor).
   Vector3 omega_rate() const {
     Vector3 rhs = Pi_n.cross(omega_n);
+    if constexpr (Scene::has_wheels) rhs -= scene.wheel_momentum_rate();  // the motors' reaction [W1]
     if constexpr (Scene::has_potential || Scene::has_applied_torque) {
       // The caches hold t_{n+½}; a time-dependent torque is thus sampled at mid-step,
       // which only shifts the predictor by O(h²).

@@ -43,6 +43,8 @@ class CompositionCore {
   const Scheme& scheme() const { return base_.scheme(); }
   /// The scene.
   const Scene& scene() const { return base_.scene(); }
+  /// The scene, to change between steps (drivers/sampled.hpp).
+  Scene& scene() { return base_.scene(); }
   /// The Newton options of every sub-step.
   const NewtonOptions<Scalar>& options() const { return base_.options(); }
   /// The Newton options of every sub-step, to modify.

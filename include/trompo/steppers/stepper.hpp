@@ -120,6 +120,9 @@ class Stepper {
   const Scheme& scheme() const { return scheme_; }
   /// The scene.
   const Scene& scene() const { return scene_; }
+  /// The scene, to change between steps: the sampled driver moves the wheels' hold and sets
+  /// held commands in its effects (drivers/sampled.hpp). Never while a step runs.
+  Scene& scene() { return scene_; }
   /// The Newton options.
   const NewtonOptions<Scalar>& options() const { return options_; }
   /// The Newton options, to modify.

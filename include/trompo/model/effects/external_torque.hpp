@@ -65,6 +65,8 @@ class BodyTorque {
 
   /// The callable T(t).
   const F& function() const { return f_; }
+  /// The callable, to change between steps (the sampled driver sets a held torque's value).
+  F& function() { return f_; }
 
   /// T = T(t_{n+½}) in the body.
   struct Cache {

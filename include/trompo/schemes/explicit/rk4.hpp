@@ -28,7 +28,11 @@ StepReport<typename Scene::Scalar> rk4_step(const Scene& scene, const State<type
     const Quaternion q(qc);
     const Quaternion qd = q * Quaternion(Scalar(0), w.x(), w.y(), w.z());
     dq = qd.coeffs() / Scalar(2);
-    Vector3 rhs = scene.momentum(w).cross(w);
+    Vector3 rhs;
+    if constexpr (Scene::has_wheels)
+      rhs = scene.momentum(w, t).cross(w) - scene.wheel_momentum_rate();  // Π(t) × Ω − ḣ_w  [W1]
+    else
+      rhs = scene.momentum(w).cross(w);
     if constexpr (Scene::has_potential || Scene::has_applied_torque)
       // The stage quaternions drift off |q| = 1, and Eigen's toRotationMatrix() of a
       // non-unit q is not a rotation: normalise before taking Λ(q).
@@ -65,7 +69,7 @@ struct RK4 {
   /// "rk4".
   static constexpr const char* name = "rk4";
   /// Order 4; not symmetric (may not be composed); keeps nothing exactly; memoryless.
-  static constexpr SchemeTraits traits{.order = 4};
+  static constexpr SchemeTraits traits{.order = 4, .carries_wheels = true};
 
   /// One explicit step (the scheme contract of scheme.hpp; the Newton options are unused).
   template <class Scene>

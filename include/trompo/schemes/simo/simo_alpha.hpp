@@ -23,7 +23,11 @@ struct SimoAlpha {
       .order = 2,
       .symmetric = true,
       .keeps =
-          [](SceneKind s) { return Keeps{.energy = s.is_free, .momentum_map = true, .spatial_momentum = s.is_free}; },
+          [](SceneKind s) {
+            return Keeps{.energy = s.is_free || s.wheels_only(), .momentum_map = true,
+                         .spatial_momentum = s.is_free || s.wheels_only()};
+          },
+      .carries_wheels = true,
       .refined = true,
       .validated = true};
 

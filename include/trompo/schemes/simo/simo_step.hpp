@@ -41,7 +41,11 @@ namespace detail {
 inline constexpr SchemeTraits energy_exact_simo_traits{
     .order = 2,
     .symmetric = true,
-    .keeps = [](SceneKind s) { return Keeps{.energy = true, .momentum_map = true, .spatial_momentum = s.is_free}; },
+    .keeps =
+        [](SceneKind s) {
+          return Keeps{.energy = true, .momentum_map = true, .spatial_momentum = s.is_free || s.wheels_only()};
+        },
+    .carries_wheels = true,
     .memory = MemoryUse::hint,
     .writes_memory_on_success = true};
 
@@ -203,7 +207,8 @@ class SimoResidual {
     const Scalar theta = std::sqrt(theta_sq);
     const Scalar a = ha.sinc();
     const Scalar b = ha.one_minus_cos_over_sq();
-    const Vector3 dPi = (Scalar(2) / h) * scene.body().momentum(y);  // Π_{n+1} − Π_n = (2/h) J y
+    Vector3 dPi = (Scalar(2) / h) * scene.body().momentum(y);  // Π_{n+1} − Π_n = (2/h) J y
+    if constexpr (Scene::has_wheels) dPi += d_.dh_w;                  // + h_w(t_{n+1}) − h_w(t_n)  [W4]
     const Vector3 Pi_next = d_.Pi_n + dPi;
     // [T1] momentum part, exp(Θ̂)Π_{n+1} − Π_n, written without the matrix Q:
     //   (Π_{n+1} − Π_n) + a Θ×Π_{n+1} + b Θ×(Θ×Π_{n+1}),  Π_{n+1} − Π_n = (2/h) J y,

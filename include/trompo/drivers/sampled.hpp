@@ -1,0 +1,257 @@
+#pragma once
+// integrate_sampled: flight software in the loop. A controller is called at the samples
+// t_k = t_0 + kT with the state at t_k; its commands (wheel motor torques, a body torque, a
+// magnetic dipole) are saturated and held constant on [t_k, t_{k+1}) (zero-order hold), and
+// any integrator of the library steps between the samples, every step landing on them
+// (docs/theory.md [W5]; docs/control.md).
+//
+//   ReactionWheels<double> rw = ...;                          // the spacecraft's wheels
+//   Scene<double, ReactionWheels<double>> sc(rw.hub_body(J), rw);
+//   Stepper<SimoKappa, decltype(sc)> stepper(SimoKappa{}, sc);
+//   stepper.scene().effect<ReactionWheels<double>>().start(s.time, s.omega);
+//   MrpPd<double> pd{.K = 3.5, .P = 30};
+//   SampledSummary<double> sum = integrate_sampled(stepper, s, 600.0, 0.1, pd, FixedSteps<double>{0.1});
+//
+// The loop. At t_k: the sample (state, wheel speeds, field in body axes) goes to a copy of
+// the controller; a command that is not finite, or one the scene cannot apply (wheel torques
+// without wheels, or of the wrong count; a body torque without HeldBodyTorque; a dipole
+// without Magnetorquer), stops the run there with the state, the wheels and the controller
+// as they were before the call (the summary names the command and t_k). Otherwise the copy
+// becomes the controller, the command is saturated ([W5]: wheels clipped to ±u_max and cut at
+// their speed limit; dipoles clipped per axis) and written into the scene's effects (the
+// wheels' hold moves to t_k, exactly), and `between` integrates to min(t_{k+1}, t_end).
+// A failed step stops the run at the last accepted state (integrate's recovery first): the
+// wheels' hold still describes h_i at that state's time, and the controller's memory is that
+// of the last sample, so the run can go on from there.
+//
+// The observer, if given, is called as observer(const State&) at t_0 and at each grid point
+// after it, once; at a sample it is called after the new command is held, so that
+// stepper.scene() shows the command that starts there.
+#include <cmath>
+#include <cstdint>
+#include <iomanip>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+
+#include "trompo/control/command.hpp"
+#include "trompo/drivers/adaptive.hpp"
+#include "trompo/drivers/integrate.hpp"
+#include "trompo/errors.hpp"
+#include "trompo/model/effects/external_torque.hpp"
+#include "trompo/model/effects/magnetorquer.hpp"
+#include "trompo/model/effects/reaction_wheels.hpp"
+#include "trompo/model/scene.hpp"
+
+namespace trompo {
+
+/// A body torque held over each sample interval (the value is set by the sampled driver).
+template <class Scalar>
+using HeldBodyTorque = ConstantBodyTorque<Scalar>;
+
+/// A held body torque starting at zero.
+template <class Scalar>
+HeldBodyTorque<Scalar> held_body_torque() {
+  return HeldBodyTorque<Scalar>(Eigen::Matrix<Scalar, 3, 1>::Zero());
+}
+
+/// What integrate_sampled did.
+template <class Scalar>
+struct SampledSummary {
+  std::int64_t samples = 0;     ///< controller calls whose command was held
+  std::int64_t steps = 0;       ///< accepted steps (whole grid intervals or adaptive steps)
+  std::int64_t failures = 0;    ///< failed step attempts (recovered or not)
+  StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
+  std::string command_error;    ///< why a command was refused (empty: none)
+  Scalar time = Scalar(0);      ///< where the run ended
+  /// Whether the run reached t_end.
+  bool ok() const { return status == StepStatus::ok && command_error.empty(); }
+  /// Why it stopped, or "ok".
+  std::string reason() const {
+    if (!command_error.empty()) return command_error;
+    return status == StepStatus::ok ? std::string("ok") : std::string(to_string(status));
+  }
+};
+
+/// Between samples: fixed steps of h by integrate() (recovery by sub-steps), landing on the samples.
+template <class Scalar>
+struct FixedSteps {
+  Scalar h;                      ///< the step (its sign must match the direction of the run)
+  IntegrateOptions options{};    ///< integrate's recovery
+  /// Integrates `traj` to t_next; adds to the summary; false on an unrecovered failure.
+  template <class StepperT, class Traj, class Obs>
+  bool operator()(const StepperT& stepper, Traj& traj, Scalar t_next, Obs&& obs, SampledSummary<Scalar>& sum) const {
+    const IntegrationSummary<Scalar> s = integrate(stepper, traj, t_next, h, std::forward<Obs>(obs), options);
+    sum.steps += s.steps + s.substeps;
+    sum.failures += s.failures;
+    sum.status = s.status;
+    return s.ok();
+  }
+};
+
+/// Between samples: adaptive steps by integrate_adaptive() to t_next, each hold a new run
+/// (its first step from options.first_step, or the driver's rule).
+template <class Scalar>
+struct AdaptiveSteps {
+  AdaptiveOptions<Scalar> options;  ///< tolerances and controls
+  /// Integrates `traj` to t_next; adds to the summary; false on a failure.
+  template <class StepperT, class Traj, class Obs>
+  bool operator()(const StepperT& stepper, Traj& traj, Scalar t_next, Obs&& obs, SampledSummary<Scalar>& sum) const {
+    AdaptiveSummary<Scalar> s;
+    if constexpr (std::is_same_v<std::decay_t<Obs>, NoObserver>) {
+      s = integrate_adaptive(stepper, traj, t_next, options);
+    } else {
+      auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) { obs(b.state); };
+      s = integrate_adaptive(stepper, traj, t_next, options, node_observer);
+    }
+    sum.steps += s.accepted;
+    sum.failures += s.failures;
+    sum.status = s.failure;
+    return s.ok();
+  }
+};
+
+namespace detail {
+template <class E, class Scene>
+struct scene_has;
+template <class E, class Scalar, class... Effects>
+struct scene_has<E, Scene<Scalar, Effects...>> : std::bool_constant<(std::is_same_v<E, Effects> || ...)> {};
+}  // namespace detail
+
+/// Whether Scene lists the effect E.
+template <class E, class Scene>
+inline constexpr bool scene_has_v = detail::scene_has<E, Scene>::value;
+
+/// The sample at the state s: wheel speeds and the field in body axes where the scene has them.
+template <class Scene>
+Sample<typename Scene::Scalar> make_sample(const Scene& scene, const State<typename Scene::Scalar>& s, long long k) {
+  using Scalar = typename Scene::Scalar;
+  Sample<Scalar> smp;
+  smp.index = k;
+  smp.time = s.time;
+  smp.state = s;
+  if constexpr (scene_has_v<ReactionWheels<Scalar>, Scene>) {
+    const auto& rw = scene.template effect<ReactionWheels<Scalar>>();
+    smp.wheel_speeds = rw.speeds(s.time, s.omega);
+    smp.wheel_axes = rw.axes();
+  }
+  if constexpr (scene_has_v<Magnetorquer<Scalar>, Scene>) {
+    smp.field = s.rotation.inverse() * scene.template effect<Magnetorquer<Scalar>>().field().inertial(s.time);
+    smp.has_field = true;
+  }
+  return smp;
+}
+
+/// Checks a command against the scene; empty if it can be held, else why not (naming the
+/// command and t).
+template <class Scene>
+std::string command_problem(const Scene& scene, const Command<typename Scene::Scalar>& c, typename Scene::Scalar t) {
+  using Scalar = typename Scene::Scalar;
+  std::ostringstream at_text;
+  at_text << " at t = " << std::setprecision(15) << static_cast<double>(t);
+  const std::string at = at_text.str();
+  if (const char* bad = c.non_finite()) return std::string("controller: non-finite command ") + bad + at;
+  if (c.wheel_torques.size() > 0) {
+    if constexpr (scene_has_v<ReactionWheels<Scalar>, Scene>) {
+      const int n = scene.template effect<ReactionWheels<Scalar>>().size();
+      if (c.wheel_torques.size() != n)
+        return "controller: wheel_torques has " + std::to_string(c.wheel_torques.size()) + " entries for " +
+               std::to_string(n) + " wheels" + at;
+    } else {
+      return "controller: wheel_torques commanded, but the scene has no wheels" + at;
+    }
+  }
+  if constexpr (!scene_has_v<HeldBodyTorque<Scalar>, Scene>)
+    if (c.body_torque != Eigen::Matrix<Scalar, 3, 1>::Zero())
+      return "controller: body_torque commanded, but the scene has no held body torque" + at;
+  if constexpr (!scene_has_v<Magnetorquer<Scalar>, Scene>)
+    if (c.dipole != Eigen::Matrix<Scalar, 3, 1>::Zero())
+      return "controller: dipole commanded, but the scene has no magnetorquers" + at;
+  return {};
+}
+
+/// Saturates a command [W5] and holds it in the scene's effects from t on.
+template <class Scene>
+void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const Sample<typename Scene::Scalar>& smp) {
+  using Scalar = typename Scene::Scalar;
+  if constexpr (scene_has_v<ReactionWheels<Scalar>, Scene>) {
+    auto& rw = scene.template effect<ReactionWheels<Scalar>>();
+    typename ReactionWheels<Scalar>::WheelVector u =
+        c.wheel_torques.size() > 0 ? c.wheel_torques : ReactionWheels<Scalar>::WheelVector::Zero(rw.size()).eval();
+    rw.hold(smp.time, rw.saturate(u, smp.wheel_speeds));
+  }
+  if constexpr (scene_has_v<HeldBodyTorque<Scalar>, Scene>)
+    scene.template effect<HeldBodyTorque<Scalar>>().function().value = c.body_torque;
+  if constexpr (scene_has_v<Magnetorquer<Scalar>, Scene>) {
+    auto& mtq = scene.template effect<Magnetorquer<Scalar>>();
+    mtq.dipole = mtq.saturate(c.dipole);
+  }
+}
+
+/// Integrates `state` (a State or the stepper's Trajectory) from state.time to t_end with the
+/// controller sampled every `period` (> 0; the run may go backward, t_end < t_0, with samples
+/// at t_0 − kT), `between` stepping each hold (FixedSteps or AdaptiveSteps). Throws
+/// invalid_input for a bad period, t_end or state, before anything runs; see the file comment.
+template <class StepperT, class StateT, class Controller, class Between, class Observer = NoObserver>
+SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, StateT& state,
+                                                           typename StepperT::Scalar t_end,
+                                                           typename StepperT::Scalar period, Controller& controller,
+                                                           const Between& between, Observer observer = {}) {
+  using Scalar = typename StepperT::Scalar;
+  using std::abs;
+  if (!std::isfinite(static_cast<double>(period)) || !(period > Scalar(0)))
+    detail::fail("sampled: control period must be finite and > 0, got ", period);
+  if (!std::isfinite(static_cast<double>(t_end))) detail::fail("sampled: t_end must be finite, got ", t_end);
+  state.validate();
+  constexpr bool observed = !std::is_same_v<Observer, NoObserver>;
+  SampledSummary<Scalar> sum;
+  const Scalar t0 = state.time;
+  const Scalar dir = t_end >= t0 ? Scalar(1) : Scalar(-1);
+  // The samples t_k = t_0 + kT (multiplied, not summed: no drift of the grid).
+  const Scalar span = abs(t_end - t0);
+  const long long n_samples = static_cast<long long>(std::ceil(static_cast<double>(span / period) - 1e-9));
+  for (long long k = 0; k < std::max<long long>(n_samples, 1); ++k) {
+    const Scalar t_k = t0 + dir * Scalar(k) * period;
+    const Scalar t_next = k + 1 >= n_samples ? t_end : t0 + dir * Scalar(k + 1) * period;
+    const Sample<Scalar> smp = make_sample(stepper.scene(), static_cast<const State<Scalar>&>(state), k);
+    Command<Scalar> cmd;
+    if constexpr (std::is_copy_assignable_v<Controller>) {
+      // Called on a copy, kept only if its command is held: a refused command leaves the
+      // controller's memory as it was.
+      Controller trial = controller;
+      cmd = trial(smp);
+      sum.command_error = command_problem(stepper.scene(), cmd, t_k);
+      if (!sum.command_error.empty()) break;
+      controller = trial;
+    } else {
+      // A lambda (not assignable): called in place; what it captured is its own.
+      cmd = controller(smp);
+      sum.command_error = command_problem(stepper.scene(), cmd, t_k);
+      if (!sum.command_error.empty()) break;
+    }
+    hold_command(stepper.scene(), cmd, smp);
+    ++sum.samples;
+    if constexpr (observed) observer(static_cast<const State<Scalar>&>(state));
+    if (t_next == state.time) break;  // t_end = t_0
+    // Grid points inside the hold and its end (the end again at the next sample, after the
+    // command changes, unless it is t_end).
+    const bool last = t_next == t_end;
+    auto inner = [&](const State<Scalar>& s) {
+      if constexpr (observed) {
+        if (s.time != t_k && (last || s.time != t_next)) observer(s);
+      } else {
+        (void)s;
+      }
+    };
+    bool ok;
+    if constexpr (observed) ok = between(std::as_const(stepper), state, t_next, inner, sum);
+    else ok = between(std::as_const(stepper), state, t_next, NoObserver{}, sum);
+    if (!ok) break;
+  }
+  sum.time = state.time;
+  return sum;
+}
+
+}  // namespace trompo

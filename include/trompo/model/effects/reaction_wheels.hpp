@@ -1,0 +1,221 @@
+#pragma once
+// Reaction wheels: N balanced wheels whose motor torques are held constant over a sample
+// interval (zero-order hold), with the total angular momentum of body plus wheels exact in
+// the energy-momentum schemes (docs/theory.md §16, [W1]–[W6]; docs/control.md).
+//
+//   ReactionWheels<double> rw;                                 // up to max_wheels wheels
+//   rw.add_wheel({.axis = V::UnitX(), .inertia = 0.0796, .speed0 = 10.47, .max_torque = 0.2});
+//   RigidBody<double> hub = rw.hub_body(J);                    // J − Σ J_s g gᵀ  [W1]
+//   Scene<double, ReactionWheels<double>> sc(hub, rw);
+//   sc.effect<ReactionWheels<double>>().start(0.0, omega0);     // h_i(0) from the speeds
+//
+// The model [W1]. J is the whole spacecraft's inertia (wheels included), wheel i has unit
+// spin axis g_i (body), axial inertia J_s,i and speed Ω_i relative to the body. With the
+// wheels' absolute axial momenta h_i = J_s,i (Ω_i + g_i·Ω), the body momentum is
+//   Π = J Ω + Σ J_s,i Ω_i g_i = J_hub Ω + Σ h_i g_i,   J_hub = J − Σ J_s,i g_i g_iᵀ,
+// and the equations are Π̇ + Ω × Π = τ_ext, ḣ_i = u_i (u_i the motor torque on wheel i).
+// So the scene's body is the hub, J_hub, and the wheels are a rotor whose momentum
+// h_r(t) = Σ h_i(t) g_i changes with time.
+//
+// The hold [W2]. Flight software sets u at the samples t_k and holds it until t_{k+1}:
+// inside a hold h_i(t) = h_i(t_k) + u_i (t − t_k) exactly, so the wheels need no state of
+// their own in the schemes: h_r(t) is a known linear function of t, every step (fixed or
+// adaptive, forward or backward, a sub-step of a composition or of a recovered interval,
+// a dense-output node) reads it at its own times, and a failed step changes nothing. The
+// sampled driver (drivers/sampled.hpp) moves the hold to the next sample with hold(),
+// which carries h_i(t_{k+1}) over exactly as this line. Without a driver u = 0: the wheels
+// spin at constant absolute momentum, a gyrostat.
+//
+// Energy [W3]: T = ½ ΩᵀJ_hubΩ + Σ h_i²/(2J_s,i), which equals ½ΩᵀJΩ + Σ(½J_s,iΩ_i² +
+// J_s,iΩ_i g_iᵀΩ); Ṫ = Σ u_i Ω_i + Ω·τ_ext (the motors' power).
+// Viscous wheel friction is not modelled: it would make h_i depend on the body's motion
+// inside a hold, and the exact linear law above is what keeps π exact at no cost.
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "trompo/errors.hpp"
+#include "trompo/model/body.hpp"
+#include "trompo/model/effects/effect.hpp"
+
+namespace trompo {
+
+/// One reaction wheel: spin axis (body; normalised), axial inertia J_s > 0, initial speed
+/// relative to the body (rad/s), motor torque limit u_max > 0 (N m) and speed limit
+/// Ω_max > 0 (rad/s); infinite limits mean none.
+template <class Scalar>
+struct Wheel {
+  Eigen::Matrix<Scalar, 3, 1> axis = Eigen::Matrix<Scalar, 3, 1>::UnitZ();  ///< g, body axes
+  Scalar inertia = Scalar(1);                                                ///< J_s
+  Scalar speed0 = Scalar(0);                                                 ///< Ω_i(t_0), relative
+  Scalar max_torque = std::numeric_limits<Scalar>::infinity();               ///< u_max
+  Scalar max_speed = std::numeric_limits<Scalar>::infinity();                ///< Ω_max
+};
+
+/// N ≤ max_wheels reaction wheels with motor torques held over each sample interval; a
+/// rotor whose momentum h_r(t) = Σ (h_i(t_k) + u_i (t − t_k)) g_i is linear in time [W2].
+template <class Scalar_>
+class ReactionWheels {
+ public:
+  /// The scalar type.
+  using Scalar = Scalar_;
+  /// A 3-vector of Scalar.
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+  /// An internal momentum (effect.hpp).
+  using kind = rotor_kind;
+  /// The rotor momentum depends on time (scene.hpp: the schemes read h_r(t) at their times).
+  static constexpr bool time_dependent_rotor = true;
+  /// The most wheels one effect carries (fixed-size storage: no heap, a cheap copy).
+  static constexpr int max_wheels = 8;
+  /// Per-wheel values: the first size() entries are used.
+  using WheelVector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, 0, max_wheels, 1>;
+
+  /// No wheels (add them with add_wheel).
+  ReactionWheels() = default;
+
+  /// Adds a wheel. Throws invalid_input naming the field: a zero or non-finite axis,
+  /// J_s ≤ 0 or non-finite, a non-finite speed, a limit ≤ 0 or NaN, more than max_wheels.
+  void add_wheel(Wheel<Scalar> w) {
+    const int i = n_;
+    const std::string name = "wheels: wheel " + std::to_string(i + 1) + ": ";
+    if (i >= max_wheels) detail::fail(name, "at most ", max_wheels, " wheels");
+    if (!detail::all_finite(w.axis) || !(w.axis.norm() > Scalar(0)))
+      detail::fail(name, "axis must be finite and non-zero, got ", detail::to_text(w.axis));
+    if (!std::isfinite(static_cast<double>(w.inertia)) || !(w.inertia > Scalar(0)))
+      detail::fail(name, "Js (axial inertia) must be finite and > 0, got ", w.inertia);
+    if (!std::isfinite(static_cast<double>(w.speed0))) detail::fail(name, "speed0 must be finite, got ", w.speed0);
+    if (!(w.max_torque > Scalar(0))) detail::fail(name, "max_torque must be > 0, got ", w.max_torque);
+    if (!(w.max_speed > Scalar(0))) detail::fail(name, "max_speed must be > 0, got ", w.max_speed);
+    ++n_;
+    axes_.conservativeResize(3, n_);
+    axes_.col(i) = w.axis.normalized();
+    resize_and_set(Js_, i, w.inertia);
+    resize_and_set(speed0_, i, w.speed0);
+    resize_and_set(u_max_, i, w.max_torque);
+    resize_and_set(w_max_, i, w.max_speed);
+    resize_and_set(h_k_, i, w.inertia * w.speed0);  // absolute momentum for Ω = 0, until start()
+    resize_and_set(u_, i, Scalar(0));
+  }
+
+  /// The number of wheels.
+  int size() const { return n_; }
+  /// Spin axis g_i (unit, body axes).
+  Vector3 axis(int i) const { return axes_.col(i); }
+  /// The 3×N matrix G_s = [g_1 … g_N].
+  const Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, max_wheels>& axes() const { return axes_; }
+  /// Axial inertias J_s,i.
+  const WheelVector& inertias() const { return Js_; }
+  /// Motor torque limits u_max,i.
+  const WheelVector& max_torques() const { return u_max_; }
+  /// Speed limits Ω_max,i.
+  const WheelVector& max_speeds() const { return w_max_; }
+
+  /// The hub's inertia J_hub = J − Σ J_s,i g_i g_iᵀ [W1], as the scene's body; J is the whole
+  /// spacecraft's. Throws invalid_input if J_hub is not positive definite (the wheels'
+  /// axial inertias exceed the spacecraft's about their axes).
+  RigidBody<Scalar> hub_body(const Matrix3& J) const {
+    Matrix3 hub = J;
+    for (int i = 0; i < n_; ++i) hub -= Js_(i) * axes_.col(i) * axes_.col(i).transpose();
+    const Eigen::SelfAdjointEigenSolver<Matrix3> eig(hub, Eigen::EigenvaluesOnly);
+    if (!(eig.eigenvalues().minCoeff() > Scalar(0)))
+      detail::fail("wheels: J - sum Js g g^T (the hub's inertia) must be positive definite; its smallest moment is ",
+                   eig.eigenvalues().minCoeff());
+    return RigidBody<Scalar>(hub, allow_unphysical_inertia);
+  }
+
+  /// Starts the hold at t_0 with the wheels at their initial relative speeds and the body
+  /// at Ω_0: h_i = J_s,i (Ω_i(0) + g_i·Ω_0), u = 0.
+  void start(Scalar t0, const Vector3& omega0) { set_speeds(t0, omega0, speed0_); }
+
+  /// Sets the wheels' relative speeds at t (body at Ω), u = 0 from then on.
+  void set_speeds(Scalar t, const Vector3& omega, const WheelVector& speeds) {
+    t_k_ = t;
+    for (int i = 0; i < n_; ++i) {
+      h_k_(i) = Js_(i) * (speeds(i) + axes_.col(i).dot(omega));
+      u_(i) = Scalar(0);
+    }
+  }
+
+  /// Moves the hold to t (the next sample): h_i(t) carried over by the linear law [W2], and
+  /// the new motor torques u held from t on. u is taken as given (saturate it first).
+  void hold(Scalar t, const WheelVector& u) {
+    for (int i = 0; i < n_; ++i) h_k_(i) += u_(i) * (t - t_k_);
+    t_k_ = t;
+    u_ = u;
+  }
+
+  /// [W5] saturation, as Basilisk's and 42's wheels do it: each u_i clipped to ±u_max,i, and
+  /// 0 when the wheel is at or past its speed limit and u_i would speed it up further.
+  WheelVector saturate(const WheelVector& u, const WheelVector& speeds) const {
+    WheelVector s = u;
+    for (int i = 0; i < n_; ++i) {
+      s(i) = std::min(std::max(u(i), -u_max_(i)), u_max_(i));
+      if (std::abs(speeds(i)) >= w_max_(i) && s(i) * speeds(i) > Scalar(0)) s(i) = Scalar(0);
+    }
+    return s;
+  }
+
+  /// The held motor torques u.
+  const WheelVector& torques() const { return u_; }
+  /// The start of the hold, t_k.
+  Scalar hold_time() const { return t_k_; }
+
+  /// h_i(t) = h_i(t_k) + u_i (t − t_k): the absolute axial momenta [W2].
+  WheelVector momenta(Scalar t) const { return h_k_ + u_ * (t - t_k_); }
+  /// Ω_i(t) = h_i(t)/J_s,i − g_i·Ω: the speeds relative to the body.
+  WheelVector speeds(Scalar t, const Vector3& omega) const {
+    WheelVector w = momenta(t);
+    for (int i = 0; i < n_; ++i) w(i) = w(i) / Js_(i) - axes_.col(i).dot(omega);
+    return w;
+  }
+  /// h_r(t) = Σ h_i(t) g_i, body axes.
+  Vector3 rotor_momentum(Scalar t) const {
+    Vector3 h = Vector3::Zero();
+    for (int i = 0; i < n_; ++i) h += (h_k_(i) + u_(i) * (t - t_k_)) * axes_.col(i);
+    return h;
+  }
+  /// ḣ_r = Σ u_i g_i, constant over the hold: the motors' reaction on the body is −ḣ_r.
+  Vector3 rotor_momentum_rate() const {
+    Vector3 r = Vector3::Zero();
+    for (int i = 0; i < n_; ++i) r += u_(i) * axes_.col(i);
+    return r;
+  }
+  /// The wheels' share of the kinetic energy, Σ h_i(t)²/(2 J_s,i) [W3].
+  Scalar rotor_energy(Scalar t) const {
+    Scalar e(0);
+    for (int i = 0; i < n_; ++i) {
+      const Scalar hi = h_k_(i) + u_(i) * (t - t_k_);
+      e += hi * hi / (Scalar(2) * Js_(i));
+    }
+    return e;
+  }
+  /// The motors' power Σ u_i Ω_i at (t, Ω) [W3].
+  Scalar motor_power(Scalar t, const Vector3& omega) const { return u_.dot(speeds(t, omega)); }
+
+  /// Nothing to keep per step (one initialised byte: see Rotor::Cache).
+  struct Cache {
+    char unused = 0;  ///< the initialised byte
+  };
+  /// Nothing to prepare per step.
+  Cache cache(const Matrix3& /*Lambda_n*/, Scalar /*t_mid*/) const { return {}; }
+
+ private:
+  static void resize_and_set(WheelVector& v, int i, Scalar x) {
+    v.conservativeResize(i + 1);
+    v(i) = x;
+  }
+
+  int n_ = 0;
+  Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, max_wheels> axes_;
+  WheelVector Js_, speed0_, u_max_, w_max_;
+  WheelVector h_k_;  ///< h_i(t_k)
+  WheelVector u_;    ///< held motor torques
+  Scalar t_k_ = Scalar(0);
+};
+
+}  // namespace trompo

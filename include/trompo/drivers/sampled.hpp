@@ -201,6 +201,14 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
                                                            const Between& between, Observer observer = {}) {
   using Scalar = typename StepperT::Scalar;
   using std::abs;
+  if constexpr (detail::needs_trajectory<StepperT, StateT>()) {
+    // A plain State with a stepper whose scheme has memory: one trajectory for the whole
+    // run, so that the memory (a splitting's frame, a history) carries across the samples.
+    auto traj = stepper.start(state);
+    const SampledSummary<Scalar> sum = integrate_sampled(stepper, traj, t_end, period, controller, between, observer);
+    static_cast<State<Scalar>&>(state) = traj.state();
+    return sum;
+  }
   if (!std::isfinite(static_cast<double>(period)) || !(period > Scalar(0)))
     detail::fail("sampled: control period must be finite and > 0, got ", period);
   if (!std::isfinite(static_cast<double>(t_end))) detail::fail("sampled: t_end must be finite, got ", t_end);

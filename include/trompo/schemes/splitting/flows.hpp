@@ -28,6 +28,7 @@
 
 #include "trompo/model/effects/effect.hpp"
 #include "trompo/model/effects/external_torque.hpp"
+#include "trompo/model/effects/magnetorquer.hpp"
 #include "trompo/model/effects/uniform_gravity.hpp"
 #include "trompo/model/effects/viscous_damping.hpp"
 #include "trompo/errors.hpp"
@@ -48,6 +49,9 @@ struct is_splitting_kick<BodyTorque<Scalar, F>> : std::true_type {};
 /// A space-fixed torque S(t) is a kick.
 template <class Scalar, class F>
 struct is_splitting_kick<SpaceTorque<Scalar, F>> : std::true_type {};
+/// A magnetorquer's held dipole, τ = m × ΛᵀB(t), is a kick.
+template <class Scalar>
+struct is_splitting_kick<Magnetorquer<Scalar>> : std::true_type {};
 
 namespace detail {
 
@@ -91,6 +95,9 @@ struct SplittingFrame {
   Vector3 h_r = Vector3::Zero();          ///< rotor momentum in the working frame
   Vector3 rotor_axis = Vector3::UnitZ();  ///< unit axis of w = −J⁻¹h_r   [S13]
   Scalar rotor_rate = Scalar(0);          ///< |w|; 0: no rotor flow
+  /// The scene has reaction wheels: the rotor flow's w(t) = −J⁻¹(h_r + h_w(t)) is formed at
+  /// each rotor sub-flow from the split clock (flow_wheels, [W14]); no exact free flow.
+  bool wheels = false;
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
   /// Whether `free` is the free flow: an asymmetric body without rotor. A symmetric body
   /// has S exact instead; a rotor's gyrostat term has no exact free flow.
@@ -100,7 +107,7 @@ struct SplittingFrame {
 
   /// The free symmetric flow [S2] alone is the exact free flow (Chin's T): symmetric body
   /// and no rotor term.
-  bool free_flow_exact() const { return k_b == Scalar(0) && rotor_rate == Scalar(0); }
+  bool free_flow_exact() const { return k_b == Scalar(0) && rotor_rate == Scalar(0) && !wheels; }
 
   /// Builds the frame of a scene: principal axes, then s, a, b by [S1]/[S8].
   /// any_order: the step uses no S or A sub-flow on an asymmetric body (Chin's and the
@@ -175,8 +182,9 @@ struct SplittingFrame {
       f.rotor_rate = w.norm();
       if (f.rotor_rate > Scalar(0)) f.rotor_axis = w / f.rotor_rate;
     }
+    f.wheels = Scene::has_wheels;
     std::apply([&](const auto&... e) { ((f.add_damping(e)), ...); }, scene.effects());
-    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0)) {
+    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0) && !f.wheels) {
       f.exact_free = true;
       f.free = EulerPoinsot<Scalar>(f.J);
     }
@@ -186,7 +194,8 @@ struct SplittingFrame {
  private:
   template <class Scene>
   static bool has_rotor_momentum(const Scene& scene) {
-    if constexpr (Scene::has_rotor) return scene.rotor_momentum() != Vector3::Zero();
+    if constexpr (Scene::has_wheels) return true;
+    else if constexpr (Scene::has_rotor) return scene.rotor_momentum() != Vector3::Zero();
     else return false;
   }
   template <class E>
@@ -246,23 +255,50 @@ inline void flow_exact_free(const SplittingFrame<Scalar>& f, SplitState<Scalar>&
 /// body-fixed axis w at the rate |w|, Λ ← Λ exp(t ŵ), Π ← exp(−t ŵ)Π (keeps π).
 template <class Scalar>
 inline void flow_rotor(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
+  rotate_body(x, f.rotor_axis, Scalar(0.5) * t * f.rotor_rate);
+}
+
+/// Λ ← Λ exp(φ n̂), Π ← exp(−φ n̂)Π for a unit body axis n and φ = 2·phi_half (keeps π = ΛΠ).
+template <class Scalar>
+inline void rotate_body(SplitState<Scalar>& x, const Eigen::Matrix<Scalar, 3, 1>& n, Scalar phi_half) {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  const Scalar phi_half = Scalar(0.5) * t * f.rotor_rate;
   Scalar sp, cp;
   sin_cos(phi_half, sp, cp);
-  const Vector3& n = f.rotor_axis;
   x.q = x.q * Eigen::Quaternion<Scalar>(cp, sp * n.x(), sp * n.y(), sp * n.z());
   // exp(−φ n̂)Π = Π − sin φ n×Π + (1 − cos φ) n×(n×Π), increment form [S5]
   const Vector3 nxP = n.cross(x.P);
   x.P += (Scalar(-2) * sp * cp) * nxP + (Scalar(2) * sp * sp) * n.cross(nxP);
 }
 
+/// The internal momentum h_r + h_w(t) in the working frame: the rotors' and, at the split
+/// clock t, the wheels' [W14].
+template <class Scene, class Scalar = typename Scene::Scalar>
+inline Eigen::Matrix<Scalar, 3, 1> internal_momentum(const Scene& scene, const SplittingFrame<Scalar>& f, Scalar t) {
+  if constexpr (Scene::has_wheels) {
+    const Eigen::Matrix<Scalar, 3, 1> hw = scene.wheel_momentum(t);
+    return f.h_r + (f.identity ? hw : Eigen::Matrix<Scalar, 3, 1>(f.Qt * hw));
+  } else {
+    return f.h_r;
+  }
+}
+
+/// [W14] the wheels' rotor flow: the flow of −(h_r + h_w(t))·J⁻¹Π with the split clock t
+/// frozen, a rotation about w = −J⁻¹(h_r + h_w(t)) at the rate |w| (flow_rotor's, with w
+/// formed from the clock: the held commands change h_w along the run).
+template <class Scene, class Scalar = typename Scene::Scalar>
+inline void flow_wheels(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
+  const Eigen::Matrix<Scalar, 3, 1> w = -f.J_inv.cwiseProduct(internal_momentum(scene, f, x.t));
+  const Scalar rate = w.norm();
+  if (rate > Scalar(0)) rotate_body(x, Eigen::Matrix<Scalar, 3, 1>(w / rate), Scalar(0.5) * t * rate);
+}
+
 /// [S13] the exact flow of viscous damping −cΩ with Λ frozen: in principal axes
 /// (Π − h_r)_i ← e^{−c t/J_i}(Π − h_r)_i, written as an increment with expm1.
-template <class Scalar>
-inline void flow_damping(const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
+template <class Scene, class Scalar = typename Scene::Scalar>
+inline void flow_damping(const Scene& scene, const SplittingFrame<Scalar>& f, SplitState<Scalar>& x, Scalar t) {
   using std::expm1;
-  for (int i = 0; i < 3; ++i) x.P(i) += expm1(-f.damping * t * f.J_inv(i)) * (x.P(i) - f.h_r(i));
+  const Eigen::Matrix<Scalar, 3, 1> h = internal_momentum(scene, f, x.t);
+  for (int i = 0; i < 3; ++i) x.P(i) += expm1(-f.damping * t * f.J_inv(i)) * (x.P(i) - h(i));
 }
 
 /// The kick torque τ(Λ, t) in the working frame: the potentials' torques and the kicks'

@@ -220,6 +220,7 @@ struct SplittingScheme {
           },
       .error_scales_with_load = true,
       .keeps_jacobi_integral = EnergyProjection,
+      .carries_wheels = !EnergyProjection,
       .memory = EnergyProjection ? MemoryUse::carried : MemoryUse::hint,
       .writes_memory_on_success = true,
       .refined = true};
@@ -252,6 +253,11 @@ struct SplittingScheme {
                        " needs the exact free flow [F1]-[F7], which a rotor's gyrostat term does not have: use "
                        "chin-4a or the Strang compositions");
     }
+    if constexpr (Scene::has_wheels)
+      if (is_chin(method) || is_near_integrable(method))
+        detail::fail("splitting: method ", to_string(method),
+                     " needs an exact free flow or a conservative load, which a scene with wheels has not (their "
+                     "held torques change h_w): use strang, suzuki-5 or kahan-li-9");
     if (is_chin(method) && !detail::splitting_effects_of<Scene>::conservative)
       detail::fail("splitting: method ", to_string(method),
                    " needs a scene whose effects are potentials and rotors (its modified kick is a force "
@@ -271,7 +277,7 @@ struct SplittingScheme {
     // Chin wherever its free flow T is exact: S on a symmetric body, the Euler–Poinsot flow
     // [F1]–[F7] on an asymmetric one without rotor (measured, docs/splitting.md: on HTA at
     // 1e-8 Chin 4A on the exact flow beats Suzuki-5 and Kahan–Li-9).
-    const bool chin = detail::splitting_effects_of<Scene>::conservative &&
+    const bool chin = detail::splitting_effects_of<Scene>::conservative && !frame.wheels &&
                       (frame.free_flow_exact() || frame.rotor_rate == typename Scene::Scalar(0));
     if (wanted_order == 4) return SplittingScheme(chin ? SplittingMethod::chin_4a : SplittingMethod::suzuki_5);
     return SplittingScheme(chin ? SplittingMethod::chin_triple_jump : SplittingMethod::kahan_li_9);
@@ -320,7 +326,7 @@ struct SplittingScheme {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     StepReport<Scalar> rep;
-    if ((is_chin(method) || is_near_integrable(method)) && !Effects::conservative) {
+    if ((is_chin(method) || is_near_integrable(method)) && (!Effects::conservative || Scene::has_wheels)) {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
@@ -334,8 +340,8 @@ struct SplittingScheme {
     x.q = f.identity ? in.rotation.unit_quaternion() : in.rotation.unit_quaternion() * f.Q;
     const Vector3 omega_w = f.identity ? in.omega : Vector3(f.Qt * in.omega);
     x.P = f.J.cwiseProduct(omega_w);
-    if constexpr (Scene::has_rotor) x.P += f.h_r;
     x.t = in.time;
+    if constexpr (Scene::has_rotor || Scene::has_wheels) x.P += detail::internal_momentum(scene, f, x.t);
     // The projection aims at the trajectory's first energy (kept in the memory), not at
     // each step's: the one-update residuals (~ε) then do not accumulate as a random walk.
     if constexpr (EnergyProjection)
@@ -391,7 +397,7 @@ struct SplittingScheme {
     const Eigen::Quaternion<Scalar> q = f.identity ? x.q : x.q * f.Q.conjugate();
     out.rotation = SO3<Scalar>::renormalized(q);
     Vector3 m = x.P;
-    if constexpr (Scene::has_rotor) m -= f.h_r;
+    if constexpr (Scene::has_rotor || Scene::has_wheels) m -= detail::internal_momentum(scene, f, in.time + h);
     // Divided, not multiplied by the rounded 1/J: a rounded reciprocal biases every step the
     // same way (π would drift like N·ε, as in [S5]).
     const Vector3 omega = m.cwiseQuotient(f.J);
@@ -415,7 +421,9 @@ struct SplittingScheme {
       if constexpr (Effects::has_damping) ids[m++] = damping_flow;
       if constexpr (Effects::has_kick) ids[m++] = kick_flow;
     }
-    if constexpr (Scene::has_rotor)
+    if constexpr (Scene::has_wheels)
+      ids[m++] = rotor_flow;  // w(t) changes with the held commands: always a sub-flow [W14]
+    else if constexpr (Scene::has_rotor)
       if (f.rotor_rate > Scalar(0)) ids[m++] = rotor_flow;
     if (f.k_b != Scalar(0)) ids[m++] = asymmetric_flow;
     return m;
@@ -427,13 +435,14 @@ struct SplittingScheme {
     using Effects = detail::splitting_effects_of<Scene>;
     switch (id) {
       case damping_flow:
-        if constexpr (Effects::has_damping) detail::flow_damping(f, x, t);
+        if constexpr (Effects::has_damping) detail::flow_damping(scene, f, x, t);
         break;
       case kick_flow:
         if constexpr (Effects::has_kick) detail::flow_kick(scene, f, x, t);
         break;
       case rotor_flow:
-        if constexpr (Scene::has_rotor) detail::flow_rotor(f, x, t);
+        if constexpr (Scene::has_wheels) detail::flow_wheels(scene, f, x, t);
+        else if constexpr (Scene::has_rotor) detail::flow_rotor(f, x, t);
         break;
       default: detail::flow_asymmetric(f, x, t);
     }

@@ -194,6 +194,9 @@ check "wheels + mrp-pd: the attitude reaches the target (Lambda = I: R00 > 0.999
 "$sim" $ctl --wheels "$tmp/rw3.csv" --scheme rk4 --every 600 >"$tmp/gyro.csv" 2>&1; rc=$?
 check "wheels without a controller (a gyrostat, rk4): exit 0, 25 columns, u = 0" \
   '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/gyro.csv" | cut -d, -f23-25)" = "0,0,0" ] && [ "$(tail -1 "$tmp/gyro.csv" | awk -F, "{print NF}")" = "25" ]'
+"$sim" $ctl --wheels "$tmp/rw3.csv" --every 20 >"$tmp/gyro_k.csv" 2>&1; rc=$?
+check "free wheels (a gyrostat, simo-kappa): H (wheels' energy included) and pi exact to round-off" \
+  '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{d=(\$14-h)/h; if(d<0)d=-d; if(d>1e-12) bad=1; for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/gyro_k.csv"'
 "$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --order 4 --every 600 >"$tmp/rw4.csv" 2>&1; rc=$?
 check "wheels + mrp-pd, --order 4 (composed simo-kappa): exit 0" '[ $rc -eq 0 ] && [ $(($(wc -l <"$tmp/rw4.csv") - 1)) -eq 2 ]'
 "$sim" $ctl --controller mrp-pd:1,5 --control-period 0.5 --target-rotation 0,0,0.3 --every 600 >"$tmp/pd.csv" 2>&1; rc=$?

@@ -174,6 +174,83 @@ else
   echo "skip long run with a terminal: script(1) (bsdutils) not found; only the non-terminal path tested"
 fi
 
+# ---- control in the loop (--wheels, --controller, --control-period, field flags) ----
+wh='gx,gy,gz,Js,speed0,max_torque,max_speed'
+printf '%s\n1,0,0,0.05,10,0.2,600\n0,1,0,0.05,-5,0.2,600\n0,0,1,0.05,0,0.2,inf\n' "$wh" >"$tmp/rw3.csv"
+base="--rotation 0.5,0.2,0 --dt 0.1 --t-end 60"
+ctl="--inertia 10,12,8 --omega 0.02,-0.01,0.03 $base"
+"$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --every 10 >"$tmp/rw.csv" 2>"$tmp/rw.err"; rc=$?
+check "wheels + mrp-pd: exit 0, nothing on stderr" '[ $rc -eq 0 ] && [ ! -s "$tmp/rw.err" ]'
+check "wheels: header with wheel1..3 and u1..3" '[ "$(head -1 "$tmp/rw.csv")" = "$header,wheel1,wheel2,wheel3,u1,u2,u3" ]'
+check "wheels: 25 columns in every row, t=0 plus every 10th of 600 steps: 61 rows" \
+  'awk -F, "NF!=25{bad=1} END{exit bad}" "$tmp/rw.csv" && [ $(($(wc -l <"$tmp/rw.csv") - 1)) -eq 61 ]'
+check "wheels: initial relative speeds at t = 0" '[ "$(sed -n 2p "$tmp/rw.csv" | cut -d, -f20-22)" = "10,-5,0" ]'
+check "wheels: motor torques within max_torque 0.2, and not all zero" \
+  'awk -F, "NR>1{for(i=23;i<=25;i++){a=\$i<0?-\$i:\$i; if(a>0.2+1e-15) bad=1; if(a>0) nz=1}} END{exit bad || !nz}" "$tmp/rw.csv"'
+check "wheels: total momentum pi exact (internal torques only, simo-kappa)" \
+  'awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rw.csv"'
+check "wheels + mrp-pd: the attitude reaches the target (Lambda = I: R00 > 0.999 at the end)" \
+  'awk -F, "END{exit !(\$2 > 0.999 && \$6 > 0.999 && \$10 > 0.999)}" "$tmp/rw.csv"'
+"$sim" $ctl --wheels "$tmp/rw3.csv" --scheme rk4 --every 600 >"$tmp/gyro.csv" 2>&1; rc=$?
+check "wheels without a controller (a gyrostat, rk4): exit 0, 25 columns, u = 0" \
+  '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/gyro.csv" | cut -d, -f23-25)" = "0,0,0" ] && [ "$(tail -1 "$tmp/gyro.csv" | awk -F, "{print NF}")" = "25" ]'
+"$sim" $ctl --wheels "$tmp/rw3.csv" --every 20 >"$tmp/gyro_k.csv" 2>&1; rc=$?
+check "free wheels (a gyrostat, simo-kappa): H (wheels' energy included) and pi exact to round-off" \
+  '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{d=(\$14-h)/h; if(d<0)d=-d; if(d>1e-12) bad=1; for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/gyro_k.csv"'
+"$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --order 4 --every 600 >"$tmp/rw4.csv" 2>&1; rc=$?
+check "wheels + mrp-pd, --order 4 (composed simo-kappa): exit 0" '[ $rc -eq 0 ] && [ $(($(wc -l <"$tmp/rw4.csv") - 1)) -eq 2 ]'
+"$sim" $ctl --controller mrp-pd:1,5 --control-period 0.5 --target-rotation 0,0,0.3 --every 600 >"$tmp/pd.csv" 2>&1; rc=$?
+check "mrp-pd without wheels (a body torque): exit 0, 19 columns" \
+  '[ $rc -eq 0 ] && [ "$(head -1 "$tmp/pd.csv")" = "$header" ] && [ "$(tail -1 "$tmp/pd.csv" | awk -F, "{print NF}")" = "19" ]'
+"$sim" --inertia 0.035,0.035,0.01 --omega 0.17,0.17,0.17 --dt 0.25 --t-end 600 --every 2400 --controller bdot:1e5 \
+  --control-period 0.25 --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 >"$tmp/bdot.csv" 2>&1; rc=$?
+check "bdot with the field flags: exit 0, the rate falls" \
+  '[ $rc -eq 0 ] && awk -F, "NR==2{w=\$11^2+\$12^2+\$13^2} END{exit !(\$11^2+\$12^2+\$13^2 < w)}" "$tmp/bdot.csv"'
+printf '%s\n0,0,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw_zero.csv"
+printf '%s\n1,nan,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw_nan.csv"
+printf '%s\n1,0,0,0,0,0.2,600\n' "$wh" >"$tmp/rw_js.csv"
+printf '%s\n1,0,0,0.05,0,0.2,600\n0,1,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw2.csv"
+printf 'gx,gy,gz,Js\n1,0,0,0.05\n' >"$tmp/rw_head.csv"
+pd="--controller mrp-pd:1,5 --control-period 0.5"
+for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
+           "--wheels $tmp/rw_nan.csv|rw_nan.csv:2: gy: must be finite" \
+           "--wheels $tmp/rw_js.csv|Js (axial inertia) must be finite and > 0" \
+           "--wheels $tmp/rw_head.csv|expected the header gx,gy,gz,Js,speed0,max_torque,max_speed" \
+           "--wheels $tmp/rw3.csv --controller mrp-pd:1,5 --control-period 0|--control-period: must be > 0" \
+           "--wheels $tmp/rw3.csv --controller mrp-pd:1,5 --control-period -1|--control-period: must be > 0" \
+           "--wheels $tmp/rw3.csv --controller mrp-pd:1,5 --control-period 0.05|--control-period: 0.05 is shorter than the step --dt" \
+           "--wheels $tmp/rw3.csv --controller mrp-pd:1,5 --control-period nan|--control-period: must be finite" \
+           "--wheels $tmp/rw2.csv $pd|rank of G_s < 3" \
+           "--wheels $tmp/rw3.csv --controller bdot:1 --control-period 1|--controller bdot: needs the magnetic field" \
+           "--controller bdot:1 --control-period 1|--controller bdot: needs the magnetic field" \
+           "--wheels $tmp/rw3.csv --scheme geradin-bauchau|--scheme geradin-bauchau: cannot carry reaction wheels" \
+           "--wheels $tmp/rw3.csv --scheme splitting|--scheme splitting: cannot carry reaction wheels" \
+           "--wheels $tmp/rw3.csv --scheme exact|--scheme exact: cannot carry reaction wheels" \
+           "$pd --scheme lie-gen-alpha|--scheme lie-gen-alpha: cannot carry reaction wheels" \
+           "--controller mrp-pd:1 --control-period 1|--controller mrp-pd: expected mrp-pd:K,P" \
+           "--controller pid:1,2 --control-period 1|--controller: unknown controller 'pid'" \
+           "--controller mrp-pd:1,2|--controller: needs --control-period" \
+           "--target-rotation 0,0,1 --wheels $tmp/rw3.csv|--target-rotation: only with --controller mrp-pd" \
+           "--max-dipole 0.2 $pd|--max-dipole: only with --orbit-radius" \
+           "--orbit-radius 0 $pd|--orbit-radius: must be > 0" \
+           "--wheels $tmp/rw3.csv --mgl 1|a control run's scene has wheels" \
+           "--wheels $tmp/rw3.csv --rtol 1e-6|--rtol: not with --wheels"; do
+  flags=${bad%%|*}; want=${bad#*|}
+  "$sim" $ctl $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "control: exit 2, no rows, one line naming the field: $want" \
+    '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ] && grep -qF -- "$want" "$tmp/bad.err"'
+done
+"$sim" $base --wheels "$tmp/rw3.csv" --inertia 0.04,0.06,0.05 >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+check "control: exit 2 naming the hub's inertia (wheels' Js exceed the spacecraft's)" \
+  '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && grep -qF -- "J - sum Js g g^T (the hub" "$tmp/bad.err" && grep -qF "must be positive definite" "$tmp/bad.err"'
+# A command that comes back non-finite stops the run (exit 3) naming the command and t.
+"$sim" $base --inertia 10,12,8 --omega 10,0,0 --controller mrp-pd:1e308,1e308 --control-period 0.5 >"$tmp/inf.csv" 2>"$tmp/inf.err"; rc=$?
+check "non-finite command: exit 3, stderr names the command and t" \
+  '[ $rc -eq 3 ] && grep -qF "non-finite command body_torque at t = 0" "$tmp/inf.err"'
+"$sim" $base --inertia 10,12,8 --omega 10,0,0 --wheels "$tmp/rw3.csv" --controller mrp-pd:1e308,1e308 --control-period 0.5 >"$tmp/inf.csv" 2>"$tmp/inf.err"; rc=$?
+check "non-finite wheel command: exit 3, stderr names wheel_torques and t" \
+  '[ $rc -eq 3 ] && grep -qF "non-finite command wheel_torques at t = 0" "$tmp/inf.err"'
+
 # Backward integration.
 "$sim" --case ht1 --dt -0.001 --t-end -0.01 >"$tmp/back.csv"; rc=$?
 check "negative dt integrates backward" '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/back.csv" | cut -d, -f1)" = "-0.01" ]'

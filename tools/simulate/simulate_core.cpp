@@ -391,6 +391,147 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
   return code;
 }
 
+// ---- control in the loop (--wheels, --controller, field flags) ---------------------------
+
+/// The control run's scene (ControlScene, simulate_core.hpp): the hub of --inertia less the
+/// wheels [W1], the wheels, a held body torque at zero, and magnetorquers in the field of
+/// --orbit-radius (without it a placeholder orbit and the dipole at zero: no torque). Throws
+/// invalid_input naming the field (the hub's inertia, the orbit).
+inline ControlScene control_scene(const Config& c) {
+  using namespace trompo;
+  const ControlFlags& k = c.control;
+  ReactionWheels<double> rw;
+  for (const auto& w : k.wheels) rw.add_wheel(w);
+  const RigidBody<double> hub = rw.hub_body(c.inertia);
+  constexpr double pi = 3.14159265358979323846;
+  const CircularOrbit<double> orbit(k.orbit_radius.value_or(7000e3), k.inclination_deg.value_or(0.0) * pi / 180);
+  const Magnetorquer<double> mtq(DipoleField<double>(orbit),
+                                 V3::Constant(k.max_dipole.value_or(std::numeric_limits<double>::infinity())));
+  return ControlScene(hub, rw, held_body_torque<double>(), mtq);
+}
+
+/// --controller as one copyable type (one instantiation of the sampled driver per stepper):
+/// none (u = 0: the wheels spin freely), mrp-pd or bdot.
+struct CliController {
+  int kind = 0;  ///< 0 none, 1 mrp-pd, 2 bdot
+  trompo::MrpPd<double> pd;
+  trompo::BDot<double> bdot;
+  trompo::Command<double> operator()(const trompo::Sample<double>& s) {
+    if (kind == 1) return pd(s);
+    if (kind == 2) return bdot(s);
+    return {};
+  }
+};
+
+inline CliController make_controller(const Config& c) {
+  CliController ctrl;
+  const ControlFlags& k = c.control;
+  if (k.controller == "mrp-pd") {
+    ctrl.kind = 1;
+    ctrl.pd.K = k.K;
+    ctrl.pd.P = k.P;
+    ctrl.pd.target = trompo::SO3d::exp(k.target.value_or(V3::Zero())).matrix();
+    ctrl.pd.validate();
+  } else if (k.controller == "bdot") {
+    ctrl.kind = 2;
+    ctrl.bdot.k = k.k;
+    ctrl.bdot.validate();
+  }
+  return ctrl;
+}
+
+/// A stepper the sampled driver can hold commands in (its scene, mutable) that counts the
+/// Newton iterations since the last written row, as CountingStepper does.
+template <class StepperT>
+struct ControlStepper {
+  using Scalar = double;
+  using Scene = typename StepperT::Scene;
+  using Memory = typename StepperT::Memory;
+  StepperT inner;
+  mutable long iterations = 0;
+  Scene& scene() { return inner.scene(); }
+  const Scene& scene() const { return inner.scene(); }
+  auto start(const trompo::State<double>& s) const { return inner.start(s); }
+  template <class StateT>
+  trompo::StepReport<double> step(StateT& s, double h) const {
+    const auto rep = inner.step(s, h);
+    iterations += rep.iterations;
+    return rep;
+  }
+};
+
+/// Runs a control run with `st` by trompo::integrate_sampled: fixed steps of --dt between
+/// the samples; rows at t0, every --every-th grid point and the end, with the wheel columns.
+/// Returns 0, or 3 if a step failed or a command was refused (stderr names t and why).
+template <class StepperT>
+int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowSink& out) {
+  using namespace trompo;
+  ControlStepper<StepperT> stepper{std::move(st)};
+  stepper.scene().template effect<ReactionWheels<double>>().start(s.time, s.omega);
+  const int n = stepper.scene().template effect<ReactionWheels<double>>().size();
+  CliController ctrl = make_controller(c);
+  // Without a controller one hold spans the run (the wheels at constant momentum).
+  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(*c.dt)));
+  const V3 up = c.up.normalized();
+  out.wheel_header(n);
+  long k = -1;
+  double last_row = std::numeric_limits<double>::quiet_NaN();
+  auto row = [&](const State<double>& x) {
+    const auto& scene = stepper.scene();
+    const auto& rw = scene.template effect<ReactionWheels<double>>();
+    const ReactionWheels<double>::WheelVector w = rw.speeds(x.time, x.omega);
+    const ReactionWheels<double>::WheelVector u = rw.torques();
+    const V3 pi = scene.spatial_momentum(x);
+    out.wheel_row(x.time, x.rotation.matrix(), x.omega, scene.energy(x), up.dot(pi), pi, stepper.iterations, w.data(),
+                  u.data(), n);
+    stepper.iterations = 0;
+    last_row = x.time;
+  };
+  auto observer = [&](const State<double>& x) {
+    if (++k % c.every == 0) row(x);
+  };
+  const SampledSummary<double> sum = integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt}, observer);
+  if (!(s.time == last_row)) row(s);  // the end, always
+  if (!sum.ok()) {
+    out.flush();
+    out.message(format("control run failed at t = %.17g: %s", s.time, sum.reason().c_str()));
+    return 3;
+  }
+  return 0;
+}
+
+/// A control run: --scheme (plain, or composed by --order/--composition) on ControlScene.
+inline int run_control(const Config& c, RowSink& out) {
+  using namespace trompo;
+  const ControlScene scene = control_scene(c);
+  State<double> s0;
+  s0.rotation = SO3d::exp(c.rotation);
+  s0.omega = c.omega;
+  int code = 0;
+  const bool known = RegisteredSchemes::visit(c.scheme, [&](auto entry) {
+    using E = typename decltype(entry)::type;
+    using S = typename E::Scheme;
+    if constexpr (!E::template steps<ControlScene>) {
+      throw invalid_input("--scheme " + c.scheme + ": cannot carry reaction wheels (control runs: " +
+                          control_scheme_names() + ")");
+    } else {
+      if constexpr (E::compositions == Compositions::symmetric) {
+        if (c.order != 2) {
+          code = run_control_with(
+              ComposedStepper<S, ControlScene>(make_scheme(std::type_identity<S>{}, c), scene,
+                                               c.composition ? *c.composition : composition_of_order(c.order)),
+              c, s0, out);
+          return;
+        }
+      }
+      code = run_control_with(Stepper<S, ControlScene>(make_scheme(std::type_identity<S>{}, c), scene), c, s0, out);
+    }
+  });
+  if (!known) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+  return code;
+}
+// ---- end control ----
+
 // ---- the checks and the scenes (formerly main's body) ----------------------------------
 
 /// Calls f(scene) with the scene simulate() runs for `body` and weight `mgl`. The library
@@ -444,6 +585,11 @@ void validate(const Config& c) {
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
   if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
+  if (c.control.on()) {  // control in the loop: its own scene (the hub's inertia, the orbit)
+    check_initial_state(control_scene(c), s0, "--rotation", "--omega");
+    (void)make_controller(c);
+    return;
+  }
   const UniformGravity<double> gravity(c.mgl, c.com, c.up);
   // Effects are validated here too, before any row is written.
   const ViscousDamping<double> damping(c.damping);
@@ -485,6 +631,8 @@ int simulate_any(const Config& c, Out& out) {
   s0.rotation = SO3d::exp(c.rotation);
   s0.omega = c.omega;
   if (c.scheme == "exact") return run_exact(c, body, s0, out);
+  if constexpr (std::is_same_v<Out, RowSink>)
+    if (c.control.on()) return run_control(c, out);  // control in the loop
   // The scene of with_scene_of; an ensemble with a per-member mgl is a heavy top even
   // where a member's mgl is 0.
   return with_scene_of(c, body, c.mgl, member_weights(out),

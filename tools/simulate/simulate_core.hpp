@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -39,6 +40,7 @@
 
 #include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/integrate.hpp"
+#include "trompo/drivers/sampled.hpp"
 #include "trompo/model/cases.hpp"
 #include "trompo/schemes/registry.hpp"
 #include "trompo/steppers/composition.hpp"
@@ -110,7 +112,49 @@ constexpr const char* kUsageFlags =
     "  --substeps M                 Richardson's estimate: steps per attempt, 2..16 (default 8)\n"
     "  --t-eval T1,T2,...|@FILE     rows at exactly these times (dense output), and only these\n"
     "  --event NAME[:terminal[:N]]  nutation-max|nutation-min|axis-crossing|flip (repeatable)\n"
-    "  --event-csv FILE             one row per event: event, then the usual columns\n";
+    "  --event-csv FILE             one row per event: event, then the usual columns\n"
+    // ---- control in the loop (docs/control.md) ----
+    "  control in the loop (fixed steps of --dt between the samples; schemes that carry wheels:\n"
+    "  simo-kappa, simo-collocation, simo-alpha, rk4 and their compositions):\n"
+    "  --wheels FILE                reaction wheels: CSV with header gx,gy,gz,Js,speed0,max_torque,max_speed\n"
+    "                               (axis in body axes, axial inertia, initial speed relative to the body in\n"
+    "                               rad/s, limits in N m and rad/s, 'inf' for none); --inertia is then the\n"
+    "                               whole spacecraft's; adds columns wheel1..N (speeds) and u1..N (motor\n"
+    "                               torques held from the row on)\n"
+    "  --controller mrp-pd:K,P|bdot:k   sampled every --control-period T seconds (zero-order hold):\n"
+    "                               mrp-pd: L = -K sigma - P Omega to --target-rotation, on the wheels\n"
+    "                               (axes spanning 3-D) or, without --wheels, as a body torque;\n"
+    "                               bdot: m = -k dB/dt on magnetorquers (needs --orbit-radius)\n"
+    "  --control-period T           the sample period (> 0, at least |--dt|); required with --controller\n"
+    "  --target-rotation R1,R2,R3   mrp-pd's inertial target as a rotation vector, as --rotation (default 0)\n"
+    "  --orbit-radius M             magnetorquers in the Earth's field (centred dipole, IGRF-13 2020.0)\n"
+    "                               along a circular orbit of radius M metres\n"
+    "  --orbit-inclination DEG      with --orbit-radius: inclination in degrees (default 0)\n"
+    "  --max-dipole X               with --orbit-radius: dipole limit per axis, A m^2 (default none)\n";
+
+// ---- control in the loop (--wheels, --controller, --control-period, field flags) ----
+/// The control flags (docs/cli.md); `on()` when any is given.
+struct ControlFlags {
+  std::string wheels_file;                     ///< --wheels FILE
+  std::vector<trompo::Wheel<double>> wheels;   ///< its wheels, validated
+  std::optional<double> period;                ///< --control-period
+  std::string controller;                      ///< --controller NAME ("" none, "mrp-pd", "bdot")
+  double K = 0, P = 0, k = 0;                  ///< the controller's gains
+  std::optional<V3> target;                    ///< --target-rotation (rotation vector)
+  std::optional<double> orbit_radius;          ///< --orbit-radius (m): a magnetic field
+  std::optional<double> inclination_deg;       ///< --orbit-inclination (degrees)
+  std::optional<double> max_dipole;            ///< --max-dipole (A m^2 per axis)
+  /// Whether the run is a control run (one scene type for all of them, simulate_core.cpp).
+  bool on() const {
+    return !wheels_file.empty() || !controller.empty() || period || target || orbit_radius || inclination_deg || max_dipole;
+  }
+};
+
+/// The one scene of every control run: wheels (maybe none), a held body torque (zero unless
+/// mrp-pd runs without wheels) and magnetorquers (zero dipole without --orbit-radius).
+using ControlScene = trompo::Scene<double, trompo::ReactionWheels<double>, trompo::HeldBodyTorque<double>,
+                                   trompo::Magnetorquer<double>>;
+// ---- end control ----
 
 // ---- adaptive steps (--rtol, --atol, --control, --t-eval, --event, --event-csv) ----
 /// The adaptive flags (docs/adaptive.md); `on` when --rtol is given.
@@ -177,6 +221,7 @@ struct Config {
   std::optional<double> rho_inf;            ///< --rho-inf (lie-gen-alpha)
   std::optional<double> chi;                ///< --chi (energy-decaying)
   std::optional<std::string> chi_schedule;  ///< --chi-schedule (energy-decaying)
+  ControlFlags control;                     ///< --wheels, --controller, … (control in the loop)
 };
 
 inline double parse_number(const std::string& flag, const std::string& text) {
@@ -325,6 +370,161 @@ inline bool parse_adaptive_flag(const std::string& flag, const std::string& valu
 inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags);
 // ---- end adaptive ----
 
+// ---- control in the loop: the flags ----
+/// Reads --wheels FILE: the header gx,gy,gz,Js,speed0,max_torque,max_speed, then one wheel a
+/// line (blank lines and '#' lines skipped); limits may be 'inf'. Throws invalid_input naming
+/// the file, the line and the field.
+inline std::vector<trompo::Wheel<double>> read_wheels(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw invalid_input("--wheels: cannot open '" + path + "': " + std::strerror(errno));
+  static const char* const names[7] = {"gx", "gy", "gz", "Js", "speed0", "max_torque", "max_speed"};
+  std::vector<trompo::Wheel<double>> wheels;
+  trompo::ReactionWheels<double> check;
+  std::string line;
+  long line_no = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::vector<std::string> fields;
+    std::stringstream ss(line);
+    std::string f;
+    while (std::getline(ss, f, ',')) {
+      const auto b = f.find_first_not_of(" \t\r"), e = f.find_last_not_of(" \t\r");
+      fields.push_back(b == std::string::npos ? std::string() : f.substr(b, e - b + 1));
+    }
+    if (!line.empty() && line.back() == ',') fields.emplace_back();
+    const std::string where = "--wheels: " + path + ":" + std::to_string(line_no) + ": ";
+    if (!header) {
+      bool same = fields.size() == 7;
+      for (std::size_t i = 0; same && i < 7; ++i) same = fields[i] == names[i];
+      if (!same) throw invalid_input(where + "expected the header gx,gy,gz,Js,speed0,max_torque,max_speed");
+      header = true;
+      continue;
+    }
+    if (fields.size() != 7) throw invalid_input(where + "expected 7 fields, got " + std::to_string(fields.size()));
+    double v[7];
+    for (int i = 0; i < 7; ++i) {
+      if (i >= 5 && (fields[i] == "inf" || fields[i] == "Inf" || fields[i] == "INF"))
+        v[i] = std::numeric_limits<double>::infinity();
+      else
+        v[i] = parse_number(where + names[i], fields[i]);
+    }
+    trompo::Wheel<double> w{.axis = V3(v[0], v[1], v[2]), .inertia = v[3], .speed0 = v[4], .max_torque = v[5], .max_speed = v[6]};
+    try {
+      check.add_wheel(w);  // the library's checks, naming the field (axis, Js, …)
+    } catch (const invalid_input& e) {
+      throw invalid_input(where + e.what());
+    }
+    wheels.push_back(w);
+  }
+  if (!header) throw invalid_input("--wheels: " + path + ": no header line");
+  if (wheels.empty()) throw invalid_input("--wheels: " + path + ": no wheels (only a header)");
+  return wheels;
+}
+
+/// Reads one control flag into `k`; false if `flag` is not one of them.
+inline bool parse_control_flag(const std::string& flag, const std::string& value, ControlFlags& k) {
+  if (flag == "--wheels") {
+    k.wheels_file = value;
+    k.wheels = read_wheels(value);
+  } else if (flag == "--control-period") {
+    k.period = parse_number(flag, value);
+  } else if (flag == "--controller") {
+    const auto colon = value.find(':');
+    const std::string name = value.substr(0, colon);
+    const std::string args = colon == std::string::npos ? std::string() : value.substr(colon + 1);
+    if (name == "mrp-pd") {
+      const auto g = colon == std::string::npos ? std::vector<double>{} : parse_list(flag + " mrp-pd", args);
+      if (g.size() != 2) throw invalid_input("--controller mrp-pd: expected mrp-pd:K,P, got '" + value + "'");
+      if (!(g[0] >= 0 && g[1] >= 0)) throw invalid_input("--controller mrp-pd: K and P must be >= 0, got '" + value + "'");
+      k.K = g[0];
+      k.P = g[1];
+    } else if (name == "bdot") {
+      if (colon == std::string::npos) throw invalid_input("--controller bdot: expected bdot:k, got '" + value + "'");
+      k.k = parse_number(flag + " bdot: k", args);
+      if (!(k.k >= 0)) throw invalid_input("--controller bdot: k must be >= 0, got '" + value + "'");
+    } else {
+      throw invalid_input("--controller: unknown controller '" + name + "' (mrp-pd:K,P or bdot:k)");
+    }
+    k.controller = name;
+  } else if (flag == "--target-rotation") {
+    k.target = parse_vector(flag, value);
+  } else if (flag == "--orbit-radius") {
+    k.orbit_radius = parse_number(flag, value);
+    if (!(*k.orbit_radius > 0)) throw invalid_input("--orbit-radius: must be > 0 (m), got " + value);
+  } else if (flag == "--orbit-inclination") {
+    k.inclination_deg = parse_number(flag, value);
+  } else if (flag == "--max-dipole") {
+    k.max_dipole = parse_number(flag, value);
+    if (!(*k.max_dipole > 0)) throw invalid_input("--max-dipole: must be > 0 (A m^2), got " + value);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+/// Whether --scheme `name` steps the control scene (a scheme that carries wheels).
+inline bool steps_control_scene(const std::string& name) {
+  bool ok = false;
+  trompo::RegisteredSchemes::visit(name, [&](auto entry) { ok = decltype(entry)::type::template steps<ControlScene>; });
+  return ok;
+}
+
+/// The schemes that step the control scene, for the messages.
+inline std::string control_scheme_names() {
+  std::string names;
+  trompo::RegisteredSchemes::for_each([&](auto entry) {
+    using E = typename decltype(entry)::type;
+    if constexpr (E::template steps<ControlScene>) names += std::string(names.empty() ? "" : ", ") + E::name;
+  });
+  return names;
+}
+
+/// The checks of the control flags (exit 2 naming the field), after parse_flags' own.
+inline void check_control(const Config& c, const std::map<std::string, std::string>& flags) {
+  const ControlFlags& k = c.control;
+  if (!k.on()) return;
+  // The flag that made this a control run, for the messages.
+  std::string by;
+  for (const char* f : {"--wheels", "--controller", "--control-period", "--target-rotation", "--orbit-radius",
+                        "--orbit-inclination", "--max-dipole"})
+    if (by.empty() && flags.count(f)) by = f;
+  if (!steps_control_scene(c.scheme))
+    throw invalid_input("--scheme " + c.scheme + ": cannot carry reaction wheels, so it runs no " + by +
+                        " (control runs: " + control_scheme_names() + ")");
+  if (c.mgl != 0 || c.have_effects || c.gravity_gradient)
+    throw invalid_input(by + ": a control run's scene has wheels, a held torque and magnetorquers only (no --mgl, "
+                             "--damping, --torque, --space-torque, --rotor or --gravity-gradient)");
+  if (!c.ensemble.empty()) throw invalid_input(by + ": not with --ensemble");
+  if (c.adaptive.on) throw invalid_input("--rtol: not with " + by + " (fixed steps of --dt between the samples)");
+  if (c.processed) throw invalid_input("--composition blanes-casas-murua-13: not with " + by);
+  if (!k.controller.empty() && !k.period) throw invalid_input("--controller: needs --control-period");
+  if (k.period && k.controller.empty()) throw invalid_input("--control-period: needs --controller");
+  if (k.period && !(*k.period > 0)) throw invalid_input("--control-period: must be > 0, got " + flags.at("--control-period"));
+  if (k.period && *k.period < std::abs(*c.dt))
+    throw invalid_input("--control-period: " + flags.at("--control-period") + " is shorter than the step --dt " +
+                        std::to_string(std::abs(*c.dt)));
+  if (k.target && k.controller != "mrp-pd") throw invalid_input("--target-rotation: only with --controller mrp-pd");
+  if (!k.orbit_radius && (k.inclination_deg || k.max_dipole))
+    throw invalid_input(std::string(k.inclination_deg ? "--orbit-inclination" : "--max-dipole") + ": only with --orbit-radius");
+  if (k.controller == "bdot" && !k.orbit_radius)
+    throw invalid_input("--controller bdot: needs the magnetic field (give --orbit-radius, and --max-dipole)");
+  if (k.controller == "mrp-pd" && !k.wheels.empty()) {
+    trompo::ReactionWheels<double> rw;
+    for (const auto& w : k.wheels) rw.add_wheel(w);
+    const M3 GGt = rw.axes() * rw.axes().transpose();
+    const Eigen::SelfAdjointEigenSolver<M3> eig(GGt, Eigen::EigenvaluesOnly);
+    int rank = 0;
+    for (int i = 0; i < 3; ++i) rank += eig.eigenvalues()(i) > 1e-10 * eig.eigenvalues().maxCoeff();
+    if (rank < 3)
+      throw invalid_input("--wheels: the wheel axes span " + std::to_string(rank) +
+                          " dimension(s) (rank of G_s < 3): --controller mrp-pd needs axes that span 3-D");
+  }
+}
+// ---- end control ----
+
 /// The flags (name with its "--" → value) as a Config, with the CLI's checks and messages.
 /// trompo-simulate's parse() and the Python module (python/trompo_module.cpp) both come here.
 inline Config parse_flags(const std::map<std::string, std::string>& flags) {
@@ -414,6 +614,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
       c.threads = static_cast<unsigned>(k);
     }
     else if (parse_adaptive_flag(flag, value, c.adaptive)) continue;  // adaptive steps
+    else if (parse_control_flag(flag, value, c.control)) continue;     // control in the loop
     else throw invalid_input("unknown option '" + flag + "' (see --help)");
   }
   // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
@@ -480,6 +681,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
     if (!c.ensemble.empty())
       for (const char* f : {"--rotation", "--omega", "--every"})
         if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
+    check_control(c, flags);   // control in the loop: refuses the splitting (no wheels)
     check_adaptive(c, flags);  // adaptive steps (before this return, the splitting skipped them)
     return c;
   }
@@ -513,6 +715,7 @@ inline Config parse_flags(const std::map<std::string, std::string>& flags) {
   if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
     throw invalid_input(composed_by + ": simo-alpha is symmetric only for alpha = 0.5");
   if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
+  check_control(c, flags);  // control in the loop
   if (!c.ensemble.empty())
     for (const char* f : {"--rotation", "--omega", "--every"})
       if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
@@ -602,6 +805,19 @@ class RowSink {
   virtual void header() = 0;
   /// One row: t, Λ, Ω, H, μ, π and the Newton iterations since the last row.
   virtual void row(double t, const M3& R, const V3& W, double H, double mu, const V3& pi, long iterations) = 0;
+  /// A control run's header: kHeader's columns, then wheel1..N and u1..N (N = `wheels`).
+  /// By default only N = 0 (the plain header); the CLI's sink writes the wheel columns.
+  virtual void wheel_header(int wheels) {
+    if (wheels != 0) throw invalid_input("--wheels: this output has no wheel columns (use the CLI)");
+    header();
+  }
+  /// A control run's row: row()'s values, then the N wheel speeds (rad/s, relative to the
+  /// body) and the N motor torques held from this row on (N m).
+  virtual void wheel_row(double t, const M3& R, const V3& W, double H, double mu, const V3& pi, long iterations,
+                         const double* /*speeds*/, const double* /*torques*/, int wheels) {
+    if (wheels != 0) throw invalid_input("--wheels: this output has no wheel columns (use the CLI)");
+    row(t, R, W, H, mu, pi, iterations);
+  }
   /// Rows so far are final (before a failure message).
   virtual void flush() {}
   /// A line for the user (the CLI's stderr), without the program name and newline.
@@ -628,6 +844,23 @@ class CsvSink final : public RowSink {
       for (int j = 0; j < 3; ++j) std::fprintf(out_, ",%.17g", R(i, j));
     std::fprintf(out_, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%ld\n", W.x(), W.y(), W.z(), H, mu, pi.x(),
                  pi.y(), pi.z(), iterations);
+  }
+  void wheel_header(int wheels) override {
+    std::string h(kHeader, std::strlen(kHeader) - 1);  // without the newline
+    for (int i = 1; i <= wheels; ++i) h += ",wheel" + std::to_string(i);
+    for (int i = 1; i <= wheels; ++i) h += ",u" + std::to_string(i);
+    std::fprintf(out_, "%s\n", h.c_str());
+  }
+  void wheel_row(double t, const M3& R, const V3& W, double H, double mu, const V3& pi, long iterations,
+                 const double* speeds, const double* torques, int wheels) override {
+    std::fprintf(out_, "%.17g", t);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) std::fprintf(out_, ",%.17g", R(i, j));
+    std::fprintf(out_, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%ld", W.x(), W.y(), W.z(), H, mu, pi.x(),
+                 pi.y(), pi.z(), iterations);
+    for (int i = 0; i < wheels; ++i) std::fprintf(out_, ",%.17g", speeds[i]);
+    for (int i = 0; i < wheels; ++i) std::fprintf(out_, ",%.17g", torques[i]);
+    std::fputc('\n', out_);
   }
   void flush() override { std::fflush(out_); }
   void message(const std::string& text) override { std::fprintf(stderr, "trompo-simulate: %s\n", text.c_str()); }

@@ -52,8 +52,12 @@ struct QuaternionOde {
     dx[1] = 0.5 * qd.x();
     dx[2] = 0.5 * qd.y();
     dx[3] = 0.5 * qd.z();
-    // J Ω̇ = JΩ × Ω + τ
-    Eigen::Vector3d rhs = scene->momentum(w).cross(w);
+    // J Ω̇ = JΩ × Ω + τ; with wheels Π = J_hubΩ + h_w(t) and the motors' reaction −ḣ_w [W1]
+    Eigen::Vector3d rhs;
+    if constexpr (Scene::has_wheels)
+      rhs = scene->momentum(w, t).cross(w) - scene->wheel_momentum_rate();
+    else
+      rhs = scene->momentum(w).cross(w);
     if constexpr (Scene::has_potential || Scene::has_applied_torque)
       rhs += scene->body_torque(q.normalized().toRotationMatrix(), w, t);
     const Eigen::Vector3d wd = scene->body().inertia_inverse() * rhs;

@@ -308,8 +308,27 @@ inline std::string check(const std::uint8_t* data, std::size_t size) {
 
     const double Mgl = in.magnitude(-3, 3, wild);
     const Vec3 E = in.vector(-3, 0, wild), up = in.vector(-3, 0, wild);
-    switch (in.choose(4)) {
+    switch (in.choose(5)) {
       case 0: return with_scheme(Scene<double>(body), s, in, wild);
+      case 4: {
+        // Control in the loop: 1..4 wheels with a held command, a held body torque and
+        // magnetorquers with a held dipole (the CLI's control scene); only the schemes that
+        // carry wheels step it (the registry's steps<Scene>). The body is then the hub.
+        ReactionWheels<double> rw;
+        const int n = 1 + static_cast<int>(in.choose(4));
+        for (int i = 0; i < n; ++i)
+          rw.add_wheel({.axis = in.vector(-3, 0, wild), .inertia = in.magnitude(-4, -1, wild, false),
+                        .speed0 = in.magnitude(-3, 3, wild), .max_torque = in.magnitude(-3, 1, wild)});
+        const RigidBody<double> hub = rw.hub_body(body.inertia());
+        rw.start(s.time, s.omega);
+        ReactionWheels<double>::WheelVector u(n);
+        for (int i = 0; i < n; ++i) u(i) = in.magnitude(-3, 1, wild);
+        rw.hold(s.time, u);
+        Magnetorquer<double> mtq(DipoleField<double>(CircularOrbit<double>(in.magnitude(6.5, 7.5, wild, false), in.unit())));
+        mtq.dipole = in.vector(-3, 1, wild);
+        using S = Scene<double, ReactionWheels<double>, HeldBodyTorque<double>, Magnetorquer<double>>;
+        return with_scheme(S(hub, rw, HeldBodyTorque<double>(in.vector(-3, 1, wild)), mtq), s, in, wild);
+      }
       case 1: return with_scheme(HeavyTop<double>(body, UniformGravity<double>(Mgl, E, up)), s, in, wild);
       case 2: {
         using S = Scene<double, UniformGravity<double>, ViscousDamping<double>, ConstantBodyTorque<double>,

@@ -514,6 +514,12 @@ inline int run_control(const Config& c, RowSink& out) {
     if constexpr (!E::template steps<ControlScene>) {
       throw invalid_input("--scheme " + c.scheme + ": cannot carry reaction wheels (control runs: " +
                           control_scheme_names() + ")");
+    } else if constexpr (std::is_same_v<S, Splitting>) {
+      // The splitting carries the wheels by its rotor flow [W14]; --composition / --order
+      // pick the method as for any scene (Chin's and the near-integrable ones are refused).
+      const Splitting split(splitting_method(c, scene));
+      split.check(scene);
+      code = run_control_with(Stepper<Splitting, ControlScene>(split, scene), c, s0, out);
     } else {
       if constexpr (E::compositions == Compositions::symmetric) {
         if (c.order != 2) {

@@ -145,30 +145,32 @@ Sample<typename Scene::Scalar> make_sample(const Scene& scene, const State<typen
 }
 
 /// Checks a command against the scene; empty if it can be held, else why not (naming the
-/// command and t).
+/// command and t). Allocates only to say what is wrong.
 template <class Scene>
 std::string command_problem(const Scene& scene, const Command<typename Scene::Scalar>& c, typename Scene::Scalar t) {
   using Scalar = typename Scene::Scalar;
-  std::ostringstream at_text;
-  at_text << " at t = " << std::setprecision(15) << static_cast<double>(t);
-  const std::string at = at_text.str();
-  if (const char* bad = c.non_finite()) return std::string("controller: non-finite command ") + bad + at;
+  const auto at = [t](const std::string& what) {
+    std::ostringstream text;
+    text << what << " at t = " << std::setprecision(15) << static_cast<double>(t);
+    return text.str();
+  };
+  if (const char* bad = c.non_finite()) return at(std::string("controller: non-finite command ") + bad);
   if (c.wheel_torques.size() > 0) {
     if constexpr (scene_has_v<ReactionWheels<Scalar>, Scene>) {
       const int n = scene.template effect<ReactionWheels<Scalar>>().size();
       if (c.wheel_torques.size() != n)
-        return "controller: wheel_torques has " + std::to_string(c.wheel_torques.size()) + " entries for " +
-               std::to_string(n) + " wheels" + at;
+        return at("controller: wheel_torques has " + std::to_string(c.wheel_torques.size()) + " entries for " +
+                  std::to_string(n) + " wheels");
     } else {
-      return "controller: wheel_torques commanded, but the scene has no wheels" + at;
+      return at("controller: wheel_torques commanded, but the scene has no wheels");
     }
   }
   if constexpr (!scene_has_v<HeldBodyTorque<Scalar>, Scene>)
     if (c.body_torque != Eigen::Matrix<Scalar, 3, 1>::Zero())
-      return "controller: body_torque commanded, but the scene has no held body torque" + at;
+      return at("controller: body_torque commanded, but the scene has no held body torque");
   if constexpr (!scene_has_v<Magnetorquer<Scalar>, Scene>)
     if (c.dipole != Eigen::Matrix<Scalar, 3, 1>::Zero())
-      return "controller: dipole commanded, but the scene has no magnetorquers" + at;
+      return at("controller: dipole commanded, but the scene has no magnetorquers");
   return {};
 }
 

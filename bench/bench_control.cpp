@@ -1,0 +1,283 @@
+// trompo-bench-control: control in the loop, what accuracy costs in time (docs/control.md).
+//
+//   control/<case>/<method>/<m|tol>   one closed-loop run of the case to its end time:
+//                                     the controller sampled every T, its commands held, and
+//                                     between samples m steps of h = T/m (trompo's schemes,
+//                                     and odeint's runge_kutta4 "sub-stepping each sample"
+//                                     as Basilisk, 42 and S2E do), or odeint's dopri5
+//                                     restarted at each sample at abs = rel = tol (a SciPy
+//                                     user's solve_ivp loop). CPU time per iteration = the
+//                                     run's. Counters: err_rot (‖Λ − Λref‖_F at the end),
+//                                     err_pi (max ‖π − π0‖/‖π0‖ over the samples, where no
+//                                     external torque acts; else 0), steps.
+//
+// Cases (every parameter here):
+//   rw        Basilisk's scenarioAttitudeFeedbackRW: J = diag(900, 800, 600), three wheels on
+//             the body axes (J_s = 50/(6000 rpm), 100/200/300 rpm, 0.2 N m, 6000 rpm),
+//             σ(0) = (0.1, 0.2, −0.3), Ω(0) = (0.001, −0.01, 0.03); mrp-pd K = 3.5, P = 30,
+//             T = 0.1 s, 600 s.
+//   pointing  the same spacecraft in the gravity gradient of a 400 km circular orbit
+//             (i = 51.6°), mrp-pd (K = 3.5, P = 30) to an inertial target σ_R = (0.2, −0.1, 0.3),
+//             T = 0.5 s, one orbit (5,545 s).
+//   bdot      fast loop (a): a 3U-like body J = diag(0.033, 0.034, 0.007) kg m² tumbling at
+//             30 °/s per axis, magnetorquers of 0.2 A m² per axis in the IGRF-13 dipole along
+//             the same orbit, B-dot m = −k Ḃ with k = 1e4 A m² s/T at 4 Hz, 10 orbits.
+//   spinner   fast loop (b): J = diag(120, 100, 150) spinning at 60 rpm about its major axis
+//             with a nutation of 0.6 rad/s, three wheels on the body axes (J_s = 0.05,
+//             u_max = 0.5 N m); the wheels damp the transverse rates (L_r = −P(Ω1, Ω2, 0),
+//             P = 20) at 20 Hz, 300 s.
+// References: the splitting (Kahan–Li-9) at 64 steps a sample, cross-checked against
+// Simo-κ composed to order 6 at 32 steps a sample: their distance is the counter ref_check.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+#include "odeint_baseline.hpp"
+#include "trompo/trompo.hpp"
+
+namespace {
+
+using namespace trompo;
+using V = Eigen::Vector3d;
+using M = Eigen::Matrix3d;
+using Wheels = ReactionWheels<double>;
+constexpr double pi = 3.14159265358979323846;
+constexpr double rpm = 2 * pi / 60;
+
+/// The transverse-rate damper of the spinner: L_r = −P(Ω1, Ω2, 0) on the wheels.
+struct NutationDamper {
+  double P = 20;
+  Command<double> operator()(const Sample<double>& s) const {
+    Command<double> c;
+    c.wheel_torques = Wheels::WheelVector::Zero(s.wheel_speeds.size());
+    c.wheel_torques(0) = P * s.state.omega(0);  // u = −L_r on axis wheels
+    c.wheel_torques(1) = P * s.state.omega(1);
+    return c;
+  }
+};
+
+Wheels hr16_wheels() {
+  Wheels rw;
+  for (int i = 0; i < 3; ++i)
+    rw.add_wheel({.axis = V::Unit(i), .inertia = 50.0 / (6000 * rpm), .speed0 = 100.0 * (i + 1) * rpm, .max_torque = 0.2,
+                  .max_speed = 6000 * rpm});
+  return rw;
+}
+const M J_sc = V(900, 800, 600).asDiagonal();
+const CircularOrbit<double> leo(6771e3, 51.6 * pi / 180, 0.4, 0.1);
+
+struct RwCase {
+  static constexpr const char* name = "rw";
+  static constexpr double period = 0.1, t_end = 600;
+  static constexpr bool momentum_exact = true;
+  using Sc = Scene<double, Wheels>;
+  static Sc scene() { return Sc(hr16_wheels().hub_body(J_sc), hr16_wheels()); }
+  static State<double> initial() {
+    State<double> s;
+    s.rotation = SO3d::from_matrix(rotation_of_mrp(V(0.1, 0.2, -0.3)));
+    s.omega = V(0.001, -0.01, 0.03);
+    return s;
+  }
+  static MrpPd<double> controller() { return MrpPd<double>{.K = 3.5, .P = 30}; }
+};
+
+struct PointingCase {
+  static constexpr const char* name = "pointing";
+  static constexpr double period = 0.5;
+  static inline const double t_end = 2 * pi / leo.rate();
+  static constexpr bool momentum_exact = false;
+  using Sc = Scene<double, Wheels, GravityGradient<double>>;
+  static Sc scene() {
+    return Sc(hr16_wheels().hub_body(J_sc), hr16_wheels(), GravityGradient<double>(J_sc, leo.rate(), leo.normal(), leo.radial0()));
+  }
+  static State<double> initial() { return RwCase::initial(); }
+  static MrpPd<double> controller() {
+    return MrpPd<double>{.K = 3.5, .P = 30, .target = rotation_of_mrp(V(0.2, -0.1, 0.3))};
+  }
+};
+
+struct BdotCase {
+  static constexpr const char* name = "bdot";
+  static constexpr double period = 0.25;
+  static inline const double t_end = 10 * 2 * pi / leo.rate();
+  static constexpr bool momentum_exact = false;
+  using Sc = Scene<double, Magnetorquer<double>>;
+  static Sc scene() {
+    return Sc(RigidBody<double>(V(0.033, 0.034, 0.007), allow_unphysical_inertia),
+              Magnetorquer<double>(DipoleField<double>(leo), V::Constant(0.2)));
+  }
+  static State<double> initial() {
+    State<double> s;
+    s.rotation = SO3d::exp(V(0.3, -0.5, 0.2));
+    s.omega = V::Constant(30 * pi / 180);
+    return s;
+  }
+  static BDot<double> controller() { return BDot<double>{.k = 1e4}; }
+};
+
+struct SpinnerCase {
+  static constexpr const char* name = "spinner";
+  static constexpr double period = 0.05, t_end = 300;
+  static constexpr bool momentum_exact = true;
+  using Sc = Scene<double, Wheels>;
+  static Wheels wheels() {
+    Wheels rw;
+    for (int i = 0; i < 3; ++i) rw.add_wheel({.axis = V::Unit(i), .inertia = 0.05, .speed0 = 0, .max_torque = 0.5});
+    return rw;
+  }
+  static Sc scene() { return Sc(wheels().hub_body(V(120, 100, 150).asDiagonal()), wheels()); }
+  static State<double> initial() {
+    State<double> s;
+    s.omega = V(0.6, 0.0, 60 * rpm);
+    return s;
+  }
+  static NutationDamper controller() { return {}; }
+};
+
+/// Between samples: odeint's runge_kutta4, m steps a sample, on the stepper's scene (the
+/// held commands are in it).
+struct OdeintRK4 {
+  int m;
+  template <class StepperT, class Traj, class Obs>
+  bool operator()(const StepperT& st, Traj& s, double t_next, Obs&&, SampledSummary<double>& sum) const {
+    bench::QuaternionOde<typename StepperT::Scene> ode{&st.scene()};
+    bench::OdeState x = bench::to_ode(s);
+    const double h = (t_next - s.time) / m;
+    bench::odeint_rk4(ode, x, s.time, h, m, [](const bench::OdeState&, double) {});
+    s.rotation = bench::from_ode(x, t_next).rotation;
+    s.omega = V(x[4], x[5], x[6]);
+    s.time = t_next;
+    sum.steps += m;
+    return std::isfinite(x[4]);
+  }
+};
+
+/// Between samples: odeint's dopri5 from t_k to t_{k+1}, restarted at each sample.
+struct OdeintDopri5 {
+  double tol;
+  template <class StepperT, class Traj, class Obs>
+  bool operator()(const StepperT& st, Traj& s, double t_next, Obs&&, SampledSummary<double>& sum) const {
+    bench::QuaternionOde<typename StepperT::Scene> ode{&st.scene()};
+    bench::OdeState x = bench::to_ode(s);
+    sum.steps += bench::odeint_dopri5(ode, x, s.time, t_next, tol, [](const bench::OdeState&, double) {});
+    s.rotation = bench::from_ode(x, t_next).rotation;
+    s.omega = V(x[4], x[5], x[6]);
+    s.time = t_next;
+    return std::isfinite(x[4]);
+  }
+};
+
+struct Outcome {
+  State<double> s;
+  double err_pi = 0;
+  long steps = 0;
+  bool ok = false;
+};
+
+/// One closed-loop run of the case with `stepper` (its scene holds the commands) and `between`.
+template <class Case, class StepperT, class Between>
+Outcome run(StepperT stepper, const Between& between, bool watch_momentum) {
+  Outcome o;
+  o.s = Case::initial();
+  if constexpr (Case::Sc::has_wheels) stepper.scene().template effect<Wheels>().start(o.s.time, o.s.omega);
+  auto ctrl = Case::controller();
+  const V pi0 = stepper.scene().spatial_momentum(o.s);
+  auto watch = [&](const State<double>& x) {
+    o.err_pi = std::max(o.err_pi, (stepper.scene().spatial_momentum(x) - pi0).norm() / pi0.norm());
+  };
+  SampledSummary<double> sum;
+  if (watch_momentum && Case::momentum_exact)
+    sum = integrate_sampled(stepper, o.s, Case::t_end, Case::period, ctrl, between, watch);
+  else
+    sum = integrate_sampled(stepper, o.s, Case::t_end, Case::period, ctrl, between);
+  o.steps = sum.steps;
+  o.ok = sum.ok();
+  return o;
+}
+
+template <class Case>
+Outcome splitting_run(SplittingMethod method, int m, bool watch) {
+  return run<Case>(Stepper<Splitting, typename Case::Sc>(Splitting(method), Case::scene()),
+                   FixedSteps<double>{Case::period / m}, watch);
+}
+template <class Case>
+Outcome simo_run(int order, int m, bool watch) {
+  using Sc = typename Case::Sc;
+  if (order == 2) return run<Case>(Stepper<SimoKappa, Sc>(SimoKappa{}, Case::scene()), FixedSteps<double>{Case::period / m}, watch);
+  return run<Case>(ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Case::scene(), order == 4 ? Composition::suzuki5 : Composition::kahan_li9),
+                   FixedSteps<double>{Case::period / m}, watch);
+}
+template <class Case>
+Outcome rk4_run(int m, bool watch) {
+  return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintRK4{m}, watch);
+}
+template <class Case>
+Outcome dopri5_run(double tol, bool watch) {
+  return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintDopri5{tol}, watch);
+}
+
+/// The case's reference (computed on first use) and its distance to an independent run.
+template <class Case>
+const std::pair<State<double>, double>& reference() {
+  static const std::pair<State<double>, double> r = [] {
+    const State<double> ref = splitting_run<Case>(SplittingMethod::kahan_li_9, 64, false).s;
+    const double check = (simo_run<Case>(6, 32, false).s.rotation.matrix() - ref.rotation.matrix()).norm();
+    return std::pair{ref, check};
+  }();
+  return r;
+}
+
+template <class Case>
+void register_case() {
+  auto add = [](const std::string& method, const std::string& param, std::function<Outcome(bool)> f) {
+    const std::string name = std::string("control/") + Case::name + "/" + method + "/" + param;
+    benchmark::RegisterBenchmark(name.c_str(), [f, method, param](benchmark::State& st) {
+      Outcome o;
+      for (auto _ : st) o = f(false);
+      const Outcome w = f(true);
+      if (!o.ok || !w.ok) {
+        st.SkipWithError("the run failed");
+        return;
+      }
+      const auto& [ref, check] = reference<Case>();
+      st.counters["err_rot"] = (o.s.rotation.matrix() - ref.rotation.matrix()).norm();
+      st.counters["ref_check"] = check;
+      st.counters["err_pi"] = w.err_pi;
+      st.counters["steps"] = static_cast<double>(o.steps);
+      st.SetLabel("case=" + std::string(Case::name) + ";method=" + method + ";param=" + param);
+    })->Iterations(1)->Repetitions(3)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+  };
+  for (int m : {1, 2, 4, 8, 16, 32}) {
+    add("splitting-strang", "m:" + std::to_string(m), [m](bool w) { return splitting_run<Case>(SplittingMethod::strang, m, w); });
+    add("simo-kappa", "m:" + std::to_string(m), [m](bool w) { return simo_run<Case>(2, m, w); });
+    add("odeint-rk4", "m:" + std::to_string(m), [m](bool w) { return rk4_run<Case>(m, w); });
+    if (m <= 16) {
+      add("splitting-suzuki-5", "m:" + std::to_string(m), [m](bool w) { return splitting_run<Case>(SplittingMethod::suzuki_5, m, w); });
+      add("simo-kappa-o4s", "m:" + std::to_string(m), [m](bool w) { return simo_run<Case>(4, m, w); });
+    }
+    if (m <= 8) {
+      add("splitting-kahan-li-9", "m:" + std::to_string(m), [m](bool w) { return splitting_run<Case>(SplittingMethod::kahan_li_9, m, w); });
+      add("simo-kappa-o6", "m:" + std::to_string(m), [m](bool w) { return simo_run<Case>(6, m, w); });
+    }
+  }
+  for (int k : {6, 8, 10, 12}) {
+    const double tol = std::pow(10.0, -k);
+    add("odeint-dopri5", "tol:1e-" + std::to_string(k), [tol](bool w) { return dopri5_run<Case>(tol, w); });
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  register_case<RwCase>();
+  register_case<PointingCase>();
+  register_case<SpinnerCase>();
+  register_case<BdotCase>();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

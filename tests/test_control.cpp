@@ -515,3 +515,21 @@ TEST_CASE("bdot: detumbles a small satellite", "[control]") {
   CHECK(s.omega.norm() < 0.1 * w0);
   CHECK(bdot.have_last);
 }
+
+// The holds of the sampled driver start far from t = 0: span/h = (16.2 − 16.1)/0.02 is
+// 5 + 7e-14, and integrate() must take 5 steps, not 5 and a vanishing sixth (which failed
+// as a zero step before the remainder was measured in ulps of the times).
+TEST_CASE("integrate: whole steps far from t = 0 end without a vanishing step", "[control]") {
+  Stepper<SimoKappa, FreeScene<double>> stepper(SimoKappa{}, FreeScene<double>(RigidBody<double>(Vec3(3, 2, 1))));
+  for (const double t0 : {16.1, 1000.3, 123456.7}) {
+    State<double> s;
+    s.time = t0;
+    s.omega = Vec3(0.1, 0.2, 0.3);
+    const double t1 = t0 + 0.1;
+    const auto sum = integrate(stepper, s, t1, 0.02);
+    INFO("t0 = " << t0);
+    CHECK(sum.ok());
+    CHECK(sum.steps == 5);
+    CHECK(s.time == t1);
+  }
+}

@@ -99,8 +99,9 @@ struct SplittingFrame {
   /// each rotor sub-flow from the split clock (flow_wheels, [W14]); no exact free flow.
   bool wheels = false;
   Scalar damping = Scalar(0);             ///< Σ c of the viscous-damping effects
-  /// Whether `free` is the free flow: an asymmetric body without rotor. A symmetric body
-  /// has S exact instead; a rotor's gyrostat term has no exact free flow.
+  /// Whether `free` is the free flow: an asymmetric body without rotor, or with wheels (whose
+  /// rotor term is split off, [W14]). A symmetric body has S exact instead; a constant
+  /// rotor's gyrostat term is split as S, A and the rotor flow.
   bool exact_free = false;
   /// The exact free flow of an asymmetric body ([F1]–[F7]), its constants built once here.
   EulerPoinsot<Scalar> free;
@@ -184,7 +185,9 @@ struct SplittingFrame {
     }
     f.wheels = Scene::has_wheels;
     std::apply([&](const auto&... e) { ((f.add_damping(e)), ...); }, scene.effects());
-    if (f.k_b != Scalar(0) && f.rotor_rate == Scalar(0) && !f.wheels) {
+    // With wheels the free flow of the hub is exact too: the rotor term is a sub-flow of its
+    // own ([W14]), so the core of each Strang step is the Euler–Poinsot flow, not S with A.
+    if (f.k_b != Scalar(0) && (f.rotor_rate == Scalar(0) || f.wheels)) {
       f.exact_free = true;
       f.free = EulerPoinsot<Scalar>(f.J);
     }

@@ -409,6 +409,13 @@ struct SplittingScheme {
     return rep;
   }
 
+  /// With wheels on an asymmetric hub, the core of each Strang step is the exact free flow
+  /// [F1]–[F7] and the rotor flow is split off [W14] (no S and A).
+  template <class Scalar>
+  static bool wheels_on_exact_free(const detail::SplittingFrame<Scalar>& f) {
+    return f.wheels && f.exact_free;
+  }
+
   using FlowId = int;
   static constexpr FlowId damping_flow = 0, kick_flow = 1, rotor_flow = 2, asymmetric_flow = 3;
 
@@ -425,7 +432,7 @@ struct SplittingScheme {
       ids[m++] = rotor_flow;  // w(t) changes with the held commands: always a sub-flow [W14]
     else if constexpr (Scene::has_rotor)
       if (f.rotor_rate > Scalar(0)) ids[m++] = rotor_flow;
-    if (f.k_b != Scalar(0)) ids[m++] = asymmetric_flow;
+    if (f.k_b != Scalar(0) && !wheels_on_exact_free(f)) ids[m++] = asymmetric_flow;
     return m;
   }
 
@@ -477,7 +484,10 @@ struct SplittingScheme {
     }
     for (int k = 0; k < m; ++k) apply(ids[k], scene, f, x, w[0] * h / 2);
     for (int i = 0; i < n; ++i) {
-      detail::flow_symmetric(f, x, w[i] * h);
+      if (wheels_on_exact_free(f))
+        detail::flow_exact_free(f, x, w[i] * h);  // [W14]: the hub's exact free flow at the core
+      else
+        detail::flow_symmetric(f, x, w[i] * h);
       for (int k = m - 1; k >= 1; --k) apply(ids[k], scene, f, x, w[i] * h / 2);
       if (i + 1 < n) {
         apply(ids[0], scene, f, x, (w[i] + w[i + 1]) * h / 2);

@@ -11,9 +11,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 #include <type_traits>
 #include <vector>
 
+#include "support/show.hpp"
 #include "support/trompo_test.hpp"
 #include "trompo/trompo.hpp"
 
@@ -37,6 +39,14 @@ constexpr bool energy_exact_linear = kept<S, HeavyTop<double>>.energy;
 /// π (free body) and μ (gravity) exact: the Simo family and GB [T4], not [T5] (docs/theory.md §4).
 template <class S>
 constexpr bool momentum_exact = kept<S, HeavyTop<double>>.momentum_map && kept<S, FreeScene<double>>.spatial_momentum;
+
+/// A row of the table none of whose checks the scheme's traits admit (RK4 keeps nothing):
+/// it is still run and its figures printed, but ctest reports it as skipped, not passed,
+/// since it asserts no more than that the steps succeed (tests/support/show.hpp).
+void skip_unless_checked(bool checked, const char* scheme, const char* row) {
+  if (!checked)
+    trompo_test::skip(std::string(scheme) + ": its traits exclude every check of the row \"" + row + "\" (measured only)");
+}
 
 void report(const char* row, const char* scheme, const char* quantity, double value) {
   std::printf("[effects-table] %s | %s | %s = %.2e\n", row, scheme, quantity, value);
@@ -189,6 +199,7 @@ constexpr int n_steps = 1000;
 // ==== rows of the table ===================================================================
 
 TEMPLATE_TEST_CASE("row free body: H and pi exact", "[effects][table]", TROMPO_ALL_SCHEMES) {
+  skip_unless_checked(is_implicit<TestType> || momentum_exact<TestType>, TestType::name, "free body");
   const FreeScene<double> scene(free_body());
   const Drift d = drift<TestType>(scene, free_state(), h, n_steps);
   report("free body", TestType::name, "max dH/H", d.H);
@@ -198,6 +209,7 @@ TEMPLATE_TEST_CASE("row free body: H and pi exact", "[effects][table]", TROMPO_A
 }
 
 TEMPLATE_TEST_CASE("row uniform gravity: H and mu", "[effects][table]", TROMPO_ALL_SCHEMES) {
+  skip_unless_checked(energy_exact_linear<TestType> || momentum_exact<TestType>, TestType::name, "uniform gravity");
   const HeavyTop<double> scene(top_body(), gravity());
   const Drift d = drift<TestType>(scene, top_state(), h, n_steps);
   report("gravity", TestType::name, "max dH/H", d.H);
@@ -208,6 +220,7 @@ TEMPLATE_TEST_CASE("row uniform gravity: H and mu", "[effects][table]", TROMPO_A
 
 TEMPLATE_TEST_CASE("row viscous damping: H_{n+1} - H_n = -c h |Omega_m|^2, monotone decay", "[effects][table][damping]",
                    TROMPO_ALL_SCHEMES) {
+  skip_unless_checked(is_implicit<TestType> || energy_exact_linear<TestType>, TestType::name, "viscous damping");
   const double c = 0.3;
   const auto power = [&](const State<double>& a, const State<double>& b) {
     return -c * h * mid_omega(a, b).squaredNorm();
@@ -236,6 +249,7 @@ TEMPLATE_TEST_CASE("row viscous damping: H_{n+1} - H_n = -c h |Omega_m|^2, monot
 
 TEMPLATE_TEST_CASE("row body torque T(t): H_{n+1} - H_n = h Omega_m . T(t_{n+1/2})", "[effects][table][torque]",
                    TROMPO_ALL_SCHEMES) {
+  skip_unless_checked(is_implicit<TestType> || energy_exact_linear<TestType>, TestType::name, "body torque");
   const ThrusterProgramme T;
   const auto power = [&](const State<double>& a, const State<double>& b) {
     return h * mid_omega(a, b).dot(T(a.time + h / 2));
@@ -256,6 +270,7 @@ TEMPLATE_TEST_CASE("row body torque T(t): H_{n+1} - H_n = h Omega_m . T(t_{n+1/2
 
 TEMPLATE_TEST_CASE("row space torque S(t): power identity and pi_{n+1} - pi_n = h S(t_{n+1/2})",
                    "[effects][table][torque]", TROMPO_ALL_SCHEMES) {
+  skip_unless_checked(is_implicit<TestType> || energy_exact_linear<TestType> || momentum_exact<TestType>, TestType::name, "space torque");
   const SpaceProgramme S;
   // h Ω_m·T_m with T_m = Λ_{n+½}ᵀS: Λ_{n+½}Ω_m = Λ_nΩ_m (Ω_m is the increment's axis).
   const auto power = [&](const State<double>& a, const State<double>& b) {
@@ -596,9 +611,9 @@ TEMPLATE_TEST_CASE("effects in float and long double: power identity at the scal
   CHECK(worst < S(64) * std::numeric_limits<S>::epsilon());
 }
 
-// ==== long runs (hidden: run with `test_effects "[long]"`, ~20 s) ===============================
+// ==== long runs (registered: 3 s for Simo-κ, 8 s for collocation at -O1; docs/scenes.md quotes their figures) ==
 
-TEMPLATE_TEST_CASE("general potential, 1e5 steps with integrate(): exactness and recovery", "[.][long][potential]",
+TEMPLATE_TEST_CASE("general potential, 1e5 steps with integrate(): exactness and recovery", "[long][potential]",
                    SimoKappa, SimoCollocation) {
   const Scene<double, TestPotential<double>> scene(top_body(), test_potential());
   const Stepper<TestType, Scene<double, TestPotential<double>>> stepper(TestType{}, scene);

@@ -214,7 +214,8 @@ void check_exact(const char* kind, const char* name, const RotFn& L, const OmFn&
     CHECK(el.L <= tol_long_double_ode);
     CHECK(el.W <= tol_long_double_ode);
   } else {
-    SHOW("long double is double here: the extended-precision comparison is skipped");
+    // Reported to ctest as skipped (SKIP_REGULAR_EXPRESSION), not shown as a pass.
+    trompo_test::skip("long double is double here: the extended-precision comparison did not run");
   }
   CHECK(inv.H <= 1e-13);
   CHECK(inv.mu <= 1e-13);

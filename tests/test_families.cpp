@@ -566,14 +566,23 @@ void other_scalar() {
   SHOW("200 steps of HT1 in units of eps: constrained trapezoid dH " << ct.first << " | chi 0 dH " << em.first << ", dmu "
                                                                      << em.second << " | sensor dmu " << ed.second
                                                                      << " | gen-alpha dH " << ga.first);
-  CHECK(ct.first <= 1000);
-  CHECK(em.first <= 1000);
-  CHECK(em.second <= 1000);
-  CHECK(ed.second <= 1000);
+  // Theory: a scheme that keeps H or mu exactly errs by round-off alone, a random walk of
+  // N = 200 steps of about eps each (sqrt(N) eps). Measured (g++ 12, x86-64, eps units):
+  // float 0.8, 2.4, 1.3, 11.5 and long double 4.0, 4.8, 1.9, 3.8 (trapezoid dH, chi 0 dH
+  // and dmu, sensor dmu): at most 0.8 sqrt(N). Bound 2 sqrt(N) eps = 28 eps, 2.5x the
+  // largest measured (the bound was 1000 eps, which an O(h^2) error of 1e-7 passes).
+  const double bound = 2 * std::sqrt(200.0);
+  CHECK(ct.first <= bound);
+  CHECK(em.first <= bound);
+  CHECK(em.second <= bound);
+  CHECK(ed.second <= bound);
+  // The bound fails a scheme that does not keep H: generalised-alpha's O(h^2) energy error
+  // (9e-8 relative here) where the scalar resolves it (not in float, whose eps is 1.2e-7).
+  if (static_cast<double>(eps) < 1e-9) CHECK(ga.first > bound);
 }
 }  // namespace
 
-TEST_CASE("Families in float and long double: the invariants each keeps, to 1000 eps over 200 steps of HT1",
+TEST_CASE("Families in float and long double: the invariants each keeps, to 2 sqrt(N) eps (28 eps) over N = 200 steps of HT1",
           "[families][scalar]") {
   SECTION("float") { other_scalar<float>(); }
   SECTION("long double") { other_scalar<long double>(); }

@@ -17,6 +17,7 @@
 #include <type_traits>
 
 #include "support/same_bits.hpp"
+#include "support/show.hpp"
 #include "trompo/trompo.hpp"
 
 using namespace trompo;
@@ -47,8 +48,12 @@ struct Drift {
   Scalar H0, mu0, H_scale, mu_scale;
   Eigen::Matrix<Scalar, 3, 1> pi0;
   double max_dH = 0, max_dmu = 0, max_dpi = 0;
+  /// How often Ω₂ changed sign between observed states (FB1's flips).
+  int omega2_sign_changes = 0;
+  bool omega2_negative;
   Drift(const Scene& sc, const State<Scalar>& s0)
-      : scene(sc), H0(sc.energy(s0)), mu0(sc.momentum_map(s0)), pi0(sc.spatial_momentum(s0)) {
+      : scene(sc), H0(sc.energy(s0)), mu0(sc.momentum_map(s0)), pi0(sc.spatial_momentum(s0)),
+        omega2_negative(s0.omega(1) < Scalar(0)) {
     // Scales: H's summands (kinetic and |V| ≤ the potential's magnitude), and |π|.
     H_scale = sc.kinetic_energy(s0.omega) + std::abs(sc.potential_energy(s0.rotation));
     if (H_scale == Scalar(0)) H_scale = Scalar(1);
@@ -59,6 +64,10 @@ struct Drift {
     max_dH = std::max(max_dH, static_cast<double>(std::abs(scene.energy(s) - H0) / H_scale));
     max_dmu = std::max(max_dmu, static_cast<double>(std::abs(scene.momentum_map(s) - mu0) / mu_scale));
     max_dpi = std::max(max_dpi, static_cast<double>((scene.spatial_momentum(s) - pi0).norm() / mu_scale));
+    if (s.omega(1) != Scalar(0) && (s.omega(1) < Scalar(0)) != omega2_negative) {
+      omega2_negative = !omega2_negative;
+      ++omega2_sign_changes;
+    }
   }
 };
 
@@ -155,6 +164,14 @@ void large_increments(const Scheme& scheme, const Case& c, double h, double t_en
     }
     INFO(Scheme::name << " " << c.name << " h = " << h << ": " << accepted << " of " << n
                       << " single steps accepted, " << checked << " checked against continuation");
+    SHOW(Scheme::name << " " << c.name << " h = " << h << ": " << accepted << " of " << n << " single steps accepted, "
+                      << checked << " checked against continuation, " << on_branch << " on the branch");
+    // Where single steps were accepted, some were checked: with none, on_branch == checked
+    // would hold vacuously. (Where none is accepted, e.g. HT0 at h = 0.1, every step is
+    // recovered by integrate() and this part checks only that; the paper's GB has no
+    // continuation here: its residual is another one.)
+    if constexpr (!std::is_same_v<Scheme, GeradinBauchauPaper>)
+      if (accepted > 0) CHECK(checked > 0);
     CHECK(on_branch == checked);
     check_invariants<Scheme>(drift, 1e-12);
   }
@@ -322,8 +339,9 @@ TEMPLATE_TEST_CASE("FB1, the intermediate-axis flip, to t = 100", "[hard][fb1]",
   CHECK(kept.energy);
   CHECK(drift.max_dH <= 1e-12);
   if (kept.spatial_momentum) CHECK(drift.max_dpi <= 1e-12);
-  // The flip happened: Ω2 changed sign at least once (the Dzhanibekov effect).
-  CHECK(s.omega.allFinite());
+  // The flip happened: Ω2 changed sign (the Dzhanibekov effect), observed after every step.
+  INFO(TestType::name << ": Omega2 changed sign " << drift.omega2_sign_changes << " times");
+  CHECK(drift.omega2_sign_changes >= 2);
 }
 
 // ---- extreme inertia ratios and the disk limit ----------------------------------------------------

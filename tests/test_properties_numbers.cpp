@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include "support/scheme_properties.hpp"
+#include "support/show.hpp"
 
 using namespace trompo;
 using namespace trompo_test::properties;
@@ -27,7 +28,7 @@ TEMPLATE_LIST_TEST_CASE("registry: every scheme has a unique name, an order and 
 
 namespace {
 /// The observed order of every stepper of Entry from two runs to the reference row `ref`
-/// (h_coarse[p] and half of it, by the stepper's order p), within [p - 0.3, p + 0.6].
+/// (h_coarse[p] and half of it, by the stepper's order p), within [p - 0.3, p + 0.3].
 template <class Entry, class Case>
 void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_test::Reference& ref, [[maybe_unused]] double h2,
                  [[maybe_unused]] double h4, [[maybe_unused]] double h6, [[maybe_unused]] bool plain_only) {
@@ -47,20 +48,27 @@ void check_order([[maybe_unused]] const Case& c, [[maybe_unused]] const trompo_t
       }
       const double observed = trompo_test::observed_order(err[0], err[1]);
       INFO("errors " << err[0] << ", " << err[1] << ": observed order " << observed);
-      if (err[0] < 1e-12) {
-        // Exact on this case (the splitting on the torque-free body steps the Euler–Poinsot
-        // flow): both errors at round-off, no order to observe.
+      SHOW(Entry::name << ", " << label << ", order " << p << " on " << c.name << ": h " << h << ", errors " << err[0] << ", "
+                       << err[1] << ": observed " << observed);
+      // Exact on this case by its traits, not by a small error: a scheme whose error scales
+      // with the load steps the torque-free body's Euler–Poinsot flow (the splitting), and
+      // both errors are at round-off. Every other stepper has its order checked, whatever
+      // its errors (the ranges h2, h4, h6 keep them above 7e-11: measured 1.5e-14 for the
+      // splitting on FB1 alone).
+      if constexpr (Entry::Scheme::traits.error_scales_with_load && scene_kind_v<SceneT>.is_free) {
+        CHECK(err[0] < 1e-12);
         CHECK(err[1] < 1e-12);
         return;
       }
+      // Measured within 0.05 of p for every stepper (rk4 3.97; g++ 12, x86-64).
       CHECK(observed >= p - 0.3);
-      CHECK(observed <= p + 0.6);
+      CHECK(observed <= p + 0.3);
     });
   }
 }
 }  // namespace
 
-TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1, the scheme) and FB1 (t = 5, and its compositions) within [p - 0.3, p + 0.6]",
+TEMPLATE_LIST_TEST_CASE("registry: observed order from a dt sweep (h halved) on HT1 (t = 1, the scheme) and FB1 (t = 5, and its compositions) within [p - 0.3, p + 0.3]",
                         "[properties][order]", Entries) {
   // HT1: the scheme itself. Its compositions on FB1: on the fast top the compositions of
   // Simo's collocation are capped near order 3 by its α root switch (measured 3.25 for the
@@ -141,12 +149,23 @@ void check_scalar([[maybe_unused]] const Case& c, [[maybe_unused]] const CaseD& 
       dpi = std::max(dpi, static_cast<double>((c.scene.spatial_momentum(traj) - pi0).norm() / pi0.norm()));
     }
     const double eps = static_cast<double>(std::numeric_limits<Scalar>::epsilon());
-    const double bound = 16 * std::sqrt(double(n)) * eps;
+    // Theory: an invariant kept exactly errs by round-off alone, a random walk of n steps
+    // of about eps each (sqrt(n) eps). Measured (g++ 12, x86-64): at most 16.7 eps over
+    // n = 400 (the splitting's mu and pi on FB1 in long double), 0.84 sqrt(n). Bound
+    // 2 sqrt(n) eps = 40 eps, 2.4x that (it was 16 sqrt(n) eps = 320 eps).
+    const double bound = 2 * std::sqrt(double(n)) * eps;
     const double dW = (traj.omega.template cast<double>() - trajd.omega).norm() / trajd.omega.norm();
     const Keeps kept = keeps<SceneT>(S{});
+    SHOW(Entry::name << " on " << c.name << ", eps " << eps << ": max |dH/H| " << dH / eps << " eps, |dmu|/|pi| " << dmu / eps
+                     << " eps, |dpi|/|pi| " << dpi / eps << " eps");
     INFO("scheme " << Entry::name << " on " << c.name << ", eps " << eps << ": max |dH/H| " << dH << ", |dmu|/|pi| "
                    << dmu << ", |dpi|/|pi| " << dpi << " (bound " << bound << "), |Omega - Omega_double|/|Omega| " << dW);
     if (kept.energy) CHECK(dH <= bound);
+    // The bound fails a scheme that does not keep H, where the scalar resolves its error
+    // (long double: >= 3.7e5 eps measured; float cannot, its eps being above those errors).
+    // Not the splitting on the free body: exact there (its error scales with the load).
+    constexpr bool exact_flow = S::traits.error_scales_with_load && scene_kind_v<SceneT>.is_free;
+    if (!kept.energy && !exact_flow && eps < 1e-18) CHECK(dH > bound);
     if (kept.momentum_map) CHECK(dmu <= bound);
     if (kept.spatial_momentum) CHECK(dpi <= bound);
     CHECK(dW <= tol);

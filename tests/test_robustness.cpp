@@ -11,9 +11,11 @@
 #include <limits>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "support/same_bits.hpp"
+#include "support/show.hpp"
 #include "trompo/trompo.hpp"
 
 using namespace trompo;
@@ -266,23 +268,55 @@ TEST_CASE("the fold rule: an accepted large step has det(K J^-1) h > 0", "[robus
   // A few accepted large steps; and the rule also holds backward in time (h < 0).
   const auto c = cases::ht2<double>();
   using Top = cases::Top<double>;
+  // For each accepted step the tangent K of [T3] is evaluated at the step's own root
+  // y = Θ − hΩ_n = h(Ω_{n+1} − Ω_n)/2, and det(K J⁻¹)·h computed outright; it must be > 0
+  // and agree in sign with the library's SimoProblem::orientation (det(K)·h).
+  const Eigen::Matrix3d J_inv = c.scene.body().inertia().inverse();
+  const auto fold_rule = [&](const State<double>& before, const State<double>& after, double h) {
+    const detail::StepData<Top> d(c.scene, before, h);
+    const Vec3 y = h * (after.omega - before.omega) / 2;
+    Vec3 R;
+    Eigen::Matrix3d K;
+    double scale = 0;
+    REQUIRE(SimoKappa{}.residual(d)(y, R, K, scale));
+    const detail::SimoProblem<detail::SimoVariant::kappa, Top> problem(0.5, d, before);
+    return std::pair{(K * J_inv).determinant() * h, problem.orientation(K)};
+  };
   for (const double h : {0.015, -0.015}) {
     const Stepper<SimoKappa, Top> st(SimoKappa{}, c.scene);
     State<double> s = c.initial;
     s.time = h > 0 ? 0.0 : 2.0;
     int ok = 0;
+    double min_det = std::numeric_limits<double>::infinity();
     for (int i = 0; i < 40; ++i) {
       const State<double> before = s;
       const auto rep = st.step(s, h);
       if (rep.ok()) {
         ++ok;
+        const auto [det_h, orientation] = fold_rule(before, s, h);
+        INFO("step " << i << ", h = " << h << ": det(K J^-1) h = " << det_h << ", orientation " << orientation);
+        CHECK(det_h > 0);
+        CHECK(orientation > 0);
+        min_det = std::min(min_det, det_h);
       } else {
         CHECK(same_bits(s, before));
         for (int k = 0; k < 4; ++k) REQUIRE(st.step(s, h / 4).ok());
       }
     }
     CHECK(ok > 10);
+    SHOW("h = " << h << ": " << ok << " accepted steps, min det(K J^-1) h = " << min_det);
   }
+  // The check can fail: the same step's tangent with h's sign flipped (the root of the
+  // step backward, read as a forward one) is on the wrong side of the rule.
+  State<double> s = c.initial;
+  const State<double> before = s;
+  REQUIRE(Stepper<SimoKappa, Top>(SimoKappa{}, c.scene).step(s, 0.015).ok());
+  const detail::StepData<Top> d(c.scene, before, -0.015);
+  Vec3 R;
+  Eigen::Matrix3d K;
+  double scale = 0;
+  REQUIRE(SimoKappa{}.residual(d)(Vec3(0.015 * (s.omega - before.omega) / 2), R, K, scale));
+  CHECK_FALSE((K * J_inv).determinant() * 0.015 > 0);
 }
 
 // ---- 3. integrate ---------------------------------------------------------------------------

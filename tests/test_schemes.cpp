@@ -404,6 +404,7 @@ TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gam
       max_dH = std::max(max_dH, std::abs(scene.energy(s) - H0) / std::max(std::abs(H0), 1.0));
       continue;
     }
+    const double H0 = scene.energy(s);
     for (int k = 0; k < 200; ++k) {
       const StepReport<double> rep = stepper.step(s, 0.05);
       iterations += rep.iterations;
@@ -413,6 +414,7 @@ TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gam
         break;
       }
       ++steps;
+      max_dH = std::max(max_dH, std::abs(scene.energy(s) - H0) / std::max(std::abs(H0), 1.0));
     }
   }
   INFO(TestType::name << ": " << failed_tops << " of 50 random tops had a failed step (first: " << first << "); Newton its/step "
@@ -421,7 +423,13 @@ TEMPLATE_TEST_CASE("Random heavy tops: no step fails (50 tops, general J, E, gam
   SHOW(TestType::name << " random tops h = 0.05: " << failed_tops << " of 50 failed; its/step " << double(iterations) / double(steps)
                       << "; recovered intervals " << recovered);
   CHECK(failed_tops == 0);
-  CHECK(max_dH <= 1e-12);
-  if constexpr (!std::is_same_v<TestType, SimoCollocation>) CHECK(recovered == 0);
-  else CHECK(recovered <= 5);  // rare: 1 interval in 10⁴ measured
+  // max_dH is measured for every scheme, after every step; it is bounded where the scheme's
+  // traits say it keeps H on the heavy top (collocation, Simo-κ, GB), and only shown for
+  // Simo-α, whose H error is O(h²) (docs/theory.md §7).
+  CHECK(steps > 0);
+  if constexpr (scheme_keeps_v<TestType, HeavyTop<double>>.energy) CHECK(max_dH <= 1e-12);
+  else CHECK(max_dH > 1e-12);  // measured: Simo-α's error is visible, so the measurement is live
+  // Only collocation goes through integrate() (the others' steps are plain and counted as
+  // failed_tops above): its recovered intervals are the rare α jumps.
+  if constexpr (std::is_same_v<TestType, SimoCollocation>) CHECK(recovered <= 5);  // rare: 1 interval in 10⁴ measured
 }

@@ -1,5 +1,6 @@
 """Shared helpers of the trompo pytest suite (run by ctest as python:pytest, which sets
 PYTHONPATH to the built module and TROMPO_SIMULATE to the built CLI)."""
+import importlib
 import os
 import pathlib
 import subprocess
@@ -8,6 +9,25 @@ import numpy as np
 import pytest
 
 ROOT = pathlib.Path(os.environ.get("TROMPO_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+
+# TROMPO_REQUIRE_ALL=1 (set by ctest's python:pytest entry, whose test command installs
+# every dependency): what would be a skip by hand is an error, so that a missing module or
+# binary fails the suite instead of showing as passed.
+REQUIRE_ALL = os.environ.get("TROMPO_REQUIRE_ALL") == "1"
+
+
+def skip_or_fail(reason):
+    """pytest.skip(reason), or pytest.fail under TROMPO_REQUIRE_ALL=1."""
+    if REQUIRE_ALL:
+        pytest.fail(f"{reason} (TROMPO_REQUIRE_ALL=1: a skip is an error here)", pytrace=False)
+    pytest.skip(reason)
+
+
+def import_or_skip(name):
+    """pytest.importorskip(name), but an ImportError under TROMPO_REQUIRE_ALL=1."""
+    if REQUIRE_ALL:
+        return importlib.import_module(name)
+    return pytest.importorskip(name)
 
 
 def cli_path():
@@ -18,7 +38,7 @@ def cli_path():
                 path = str(cand)
                 break
     if not path:
-        pytest.skip("no trompo-simulate binary (set TROMPO_SIMULATE)")
+        skip_or_fail("no trompo-simulate binary (set TROMPO_SIMULATE)")
     return path
 
 

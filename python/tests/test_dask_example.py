@@ -5,15 +5,14 @@ the PNG is written."""
 import sys
 
 import numpy as np
-import pytest
 
 import trompo
-from conftest import ROOT
+from conftest import ROOT, import_or_skip
 
 sys.path.insert(0, str(ROOT / "examples" / "python"))
 import nutation_sweep  # noqa: E402
 
-distributed = pytest.importorskip("dask.distributed")
+distributed = import_or_skip("dask.distributed")  # an error under TROMPO_REQUIRE_ALL=1 (ctest)
 
 
 def closed_form_amplitude(tilt, spin, t_end, sample):

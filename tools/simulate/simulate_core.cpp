@@ -151,8 +151,6 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
 
 /// A run of more steps than this states its estimated time before it starts.
 constexpr double kAnnounceSteps = 1e8;
-/// Progress lines (stderr a terminal only) begin after this many seconds, then once a second.
-constexpr double kProgressAfter = 3.0;
 
 /// A duration for a person: seconds up to two minutes, then minutes, hours, days, years.
 inline std::string duration_text(double seconds) {
@@ -206,7 +204,8 @@ std::string estimate_text(const StepperT& stepper, const Config& c, const trompo
 
 /// Runs `stepper` through trompo::integrate (failed steps are retried as sub-steps) and
 /// writes the CSV rows. More than kAnnounceSteps steps: the estimated time on stderr first;
-/// stderr a terminal: a progress line once a second after the first kProgressAfter seconds.
+/// stderr a terminal: a progress line once a second after the first c.progress_after seconds
+/// (--progress-after, default 3).
 template <class StepperT>
 int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSink& out) {
   if (c.adaptive.on) return run_adaptive(stepper, c, s, out);  // adaptive steps (--rtol)
@@ -220,7 +219,7 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSi
   using clock = std::chrono::steady_clock;
   const bool progress = out.shows_progress();
   const auto start = clock::now();
-  double next_progress = kProgressAfter;
+  double next_progress = c.progress_after;
   bool progress_shown = false;
   long k = -1;  // the observer's first call is at t0
   auto observer = [&](const trompo::State<double>& st) {
@@ -229,7 +228,7 @@ int run(const StepperT& stepper, const Config& c, trompo::State<double> s, RowSi
       write_row(out, scene, up, st, counting.iterations);
       counting.iterations = 0;
     }
-    if (progress && (k & 0xFFF) == 0) {  // the clock every 4096 steps
+    if (progress && k > 0 && (k & 0xFFF) == 0) {  // the clock every 4096 steps (not at t0: no rate yet)
       const double elapsed = std::chrono::duration<double>(clock::now() - start).count();
       if (elapsed >= next_progress) {
         const double done = static_cast<double>(k) / static_cast<double>(n);

@@ -228,7 +228,7 @@ def test_unknown_keywords_are_type_errors_with_a_suggestion():
 
 def test_the_gil_is_released_while_cpp_integrates():
     """Two samples: at the first the controller lets a worker thread go; at the second it
-    looks whether the worker ran. Between them only C++ runs (a long hold of 200 000 steps):
+    looks whether the worker ran. Between them only C++ runs (a long hold of 500 000 steps):
     the worker can run there only if the GIL is released."""
     sc, s0 = basilisk()
     go, worker_ran = threading.Event(), threading.Event()
@@ -248,8 +248,23 @@ def test_the_gil_is_released_while_cpp_integrates():
     thread = threading.Thread(target=worker)
     thread.start()
     try:
-        trompo.control(sc, s0, 2000.0, dt=0.01, period=1000.0, controller=f, every=10**6)
+        trompo.control(sc, s0, 5000.0, dt=0.01, period=2500.0, controller=f, every=10**6)
     finally:
         go.set()
         thread.join()
     assert seen == [True]
+
+
+def test_the_example_runs_and_plots(tmp_path):
+    """examples/python/attitude_control.py on a short run (matplotlib, Agg)."""
+    pytest.importorskip("matplotlib")
+    import os
+    import pathlib
+    import subprocess
+    import sys
+    root = pathlib.Path(os.environ.get("TROMPO_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+    png = tmp_path / "attitude.png"
+    p = subprocess.run([sys.executable, str(root / "examples/python/attitude_control.py"), str(png), "--t-end", "5"],
+                       capture_output=True, text=True, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert p.returncode == 0, p.stderr
+    assert "51 rows" in p.stdout and png.stat().st_size > 1000

@@ -285,8 +285,10 @@ Vec command_entry(const char* name, const py::handle& value, int want) {
   return v;
 }
 
-/// The dict a Python controller returns as a Command (None: no command, u = 0).
-trompo::Command<double> command_of(const py::handle& out) {
+/// The dict a Python controller returns as a Command (None: no command, u = 0). `field`:
+/// whether the spacecraft has an orbit (ControlScene always has magnetorquers, in a
+/// placeholder field without one: a dipole is refused there).
+trompo::Command<double> command_of(const py::handle& out, bool field) {
   trompo::Command<double> c;
   if (out.is_none()) return c;
   if (!py::isinstance<py::dict>(out))
@@ -299,6 +301,8 @@ trompo::Command<double> command_of(const py::handle& out) {
     else if (k == "dipole") c.dipole = command_entry<V3>("dipole", value, 3);
     else throw py::value_error("controller: unknown command '" + k + "' (wheel_torques, body_torque, dipole)");
   }
+  if (!field && c.dipole != V3::Zero())
+    throw py::value_error("controller: dipole commanded, but the spacecraft has no orbit (no magnetic field)");
   return c;
 }
 
@@ -350,7 +354,8 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
       PyObject* mem = memory.ptr();
       py::object* out = &raised;
       double* at = &raised_at;
-      c.control.code = [fn, mem, out, at](const trompo::Sample<double>& s) -> trompo::Command<double> {
+      const bool field = c.control.orbit_radius.has_value();
+      c.control.code = [fn, mem, out, at, field](const trompo::Sample<double>& s) -> trompo::Command<double> {
         py::gil_scoped_acquire gil;
         *at = s.time;
         try {
@@ -364,7 +369,7 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
             for (int j = 0; j < 3; ++j) r[3 * i + j] = L(i, j);
           for (int i = 0; i < 3; ++i) W.mutable_data()[i] = s.state.omega(i);
           for (py::ssize_t i = 0; i < n; ++i) w.mutable_data()[i] = s.wheel_speeds(i);
-          return command_of(py::reinterpret_borrow<py::object>(fn)(s.time, R, W, w, py::handle(mem)));
+          return command_of(py::reinterpret_borrow<py::object>(fn)(s.time, R, W, w, py::handle(mem)), field);
         } catch (py::error_already_set& e) {
           *out = e.value();
           // The traceback (the controller's frames) on the exception itself, so that it

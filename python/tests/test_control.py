@@ -166,6 +166,9 @@ def test_an_exception_in_the_controller_ends_the_run_with_the_rows_so_far():
     with pytest.raises(trompo.ControlError) as e:
         trompo.control(sc, s0, 1.0, dt=0.05, period=0.1, controller=lambda *a: {"torque": [1, 2, 3]})
     assert isinstance(e.value.__cause__, ValueError) and "unknown command 'torque'" in str(e.value.__cause__)
+    with pytest.raises(trompo.ControlError) as e:  # no orbit: no field for a dipole
+        trompo.control(sc, s0, 1.0, dt=0.05, period=0.1, controller=lambda *a: {"dipole": [1, 0, 0]})
+    assert "no orbit" in str(e.value.__cause__)
 
 
 def test_a_non_finite_command_raises_value_error_naming_it_and_t_k():
@@ -268,3 +271,40 @@ def test_the_example_runs_and_plots(tmp_path):
                        capture_output=True, text=True, env=dict(os.environ, MPLBACKEND="Agg"))
     assert p.returncode == 0, p.stderr
     assert "51 rows" in p.stdout and png.stat().st_size > 1000
+
+
+def test_the_builtin_controller_gives_the_cli_rows(tmp_path):
+    """trompo.control with MrpPd runs trompo-simulate's control path: the CLI's rows, wheel
+    columns included, bit for bit (identity start: the same quaternion both ways)."""
+    from conftest import cli_path
+    import subprocess
+    sc, _ = basilisk()
+    s0 = trompo.initial_state(rotation=np.eye(3), omega=(0.001, -0.01, 0.03))
+    wheels = tmp_path / "wheels.csv"
+    wheels.write_text("gx,gy,gz,Js,speed0,max_torque,max_speed\n" + "".join(
+        f"{w.axis[0]!r},{w.axis[1]!r},{w.axis[2]!r},{w.Js!r},{w.speed0!r},{w.max_torque!r},{w.max_speed!r}\n"
+        for w in sc.wheels))
+    p = subprocess.run([cli_path(), "--inertia", "900,800,600", "--wheels", str(wheels), "--omega", "0.001,-0.01,0.03",
+                        "--controller", "mrp-pd:3.5,30", "--control-period", "0.1", "--target-rotation", "0.1,0,0",
+                        "--dt", "0.05", "--t-end", "5", "--order", "4"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.splitlines()
+    assert lines[0].endswith(",wheel1,wheel2,wheel3,u1,u2,u3")
+    a = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    target = trompo.initial_state(rotvec=(0.1, 0, 0)).R  # not C++'s exp to the bit: give the CLI's
+    res = trompo.control(sc, s0, 5.0, dt=0.05, period=0.1, order=4, controller=trompo.MrpPd(3.5, 30, target=target))
+    assert len(res.t) == len(a) == 101
+    np.testing.assert_allclose(res.R.reshape(-1, 9), a[:, 1:10], rtol=0, atol=1e-13)
+    # without a target (identity both ways) the bits agree
+    p = subprocess.run([cli_path(), "--inertia", "900,800,600", "--wheels", str(wheels), "--omega", "0.001,-0.01,0.03",
+                        "--controller", "mrp-pd:3.5,30", "--control-period", "0.1", "--dt", "0.05", "--t-end", "5",
+                        "--order", "4"], capture_output=True, text=True)
+    a = np.array([[float(x) for x in line.split(",")] for line in p.stdout.splitlines()[1:]])
+    res = trompo.control(sc, s0, 5.0, dt=0.05, period=0.1, order=4, controller=trompo.MrpPd(3.5, 30))
+    np.testing.assert_array_equal(res.t, a[:, 0])
+    np.testing.assert_array_equal(res.R.reshape(-1, 9), a[:, 1:10])
+    np.testing.assert_array_equal(res.W, a[:, 10:13])
+    np.testing.assert_array_equal(res.H, a[:, 13])
+    np.testing.assert_array_equal(res.pi, a[:, 15:18])
+    np.testing.assert_array_equal(res.wheel_speeds, a[:, 19:22])
+    np.testing.assert_array_equal(res.u, a[:, 22:25])

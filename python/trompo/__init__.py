@@ -156,8 +156,9 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     the rows up to the last good state) when a step fails beyond recovery. Warns with
     Recovered when sub-stepping was needed. ``inertia`` is J11,J22,J33, six numbers
     J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
-    is passed as the CLI flag ``--name`` (``_`` becomes ``-``): the CLI's own parser
-    accepts it or raises its ValueError (``unknown option '--name' (see --help)``).
+    is passed as the CLI flag ``--name`` (``_`` becomes ``-``) when the CLI has that flag
+    (its --help lists it): the CLI's own parser checks its value. A keyword that is no
+    flag is a TypeError naming it, with a "did you mean" (difflib).
 
     A satellite (docs/spacecraft.md): ``case="sat1"`` or ``"sat2"``, or ``gravity_gradient=n``
     (orbit rate, rad/s) with ``orbit_normal`` and ``radial`` (the radial direction at t = 0);

@@ -16,6 +16,7 @@ C++ code: the parser, the checks, the dispatch), so its rows are bit-identical t
 CLI's CSV rows. See docs/python.md.
 """
 import difflib
+import functools
 import math
 import numbers
 import os
@@ -89,10 +90,11 @@ def _vector(name, x, sizes=(3,)):
     return ",".join(repr(float(v)) for v in a)
 
 
+@functools.lru_cache(maxsize=None)
 def _cli_keywords():
     """The CLI's flags as keywords (--t-end -> t_end), read from its --help: a flag the CLI
     gains is a keyword at once."""
-    return {m.replace("-", "_") for m in re.findall(r"--([a-z][a-z0-9-]*)", _usage())}
+    return frozenset(m.replace("-", "_") for m in re.findall(r"--([a-z][a-z0-9-]*)", _usage()))
 
 
 def _check_keywords(function, extra, listed, refused=()):

@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -20,7 +21,7 @@ using namespace trompo_simulate;
 namespace {
 
 /// Rows as columns of doubles, turned into NumPy arrays without a copy at the end.
-class ArraySink final : public RowSink {
+class ArraySink : public RowSink {
  public:
   std::vector<double> t, R, W, H, mu, pi;
   std::vector<std::int64_t> iterations;
@@ -245,6 +246,177 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
   return d;
 }
 
+// ---- control in the loop (trompo.control; docs/python.md "Control in the loop") ----
+
+/// simulate()'s rows and, per row, the wheels' speeds (relative to the body) and the motor
+/// torques held from that row on.
+class ControlSink final : public ArraySink {
+ public:
+  std::vector<double> speeds, torques;
+  int wheels = 0;
+  void wheel_header(int n) override { wheels = n; }
+  void wheel_row(double t_, const M3& R_, const V3& W_, double H_, double mu_, const V3& pi_, long iterations_,
+                 const double* w, const double* u, int n) override {
+    row(t_, R_, W_, H_, mu_, pi_, iterations_);
+    speeds.insert(speeds.end(), w, w + n);
+    torques.insert(torques.end(), u, u + n);
+  }
+};
+
+/// A Python controller raised (its exception is kept by control_run): ends the run through
+/// the driver, whose rows so far stay in the sink.
+struct ControllerRaised {};
+
+/// 3×3 row-major from an array already checked to be (3, 3).
+M3 matrix_of(const Array& a) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data()); }
+
+/// A command's entry from Python: a 1-D array of `want` numbers (-1: up to max_wheels).
+template <class Vec>
+Vec command_entry(const char* name, const py::handle& value, int want) {
+  const Array a = py::cast<Array>(value);
+  const auto n = a.size();
+  if (a.ndim() > 1 || (want >= 0 && n != want) || n > trompo::ReactionWheels<double>::max_wheels)
+    throw py::value_error(std::string("controller: '") + name + "' must be " +
+                          (want >= 0 ? std::to_string(want) + " numbers" : std::string("one number per wheel")) +
+                          ", got " + std::to_string(n));
+  Vec v;
+  v.resize(n);
+  for (py::ssize_t i = 0; i < n; ++i) v(i) = a.data()[i];
+  return v;
+}
+
+/// The dict a Python controller returns as a Command (None: no command, u = 0). `field`:
+/// whether the spacecraft has an orbit (ControlScene always has magnetorquers, in a
+/// placeholder field without one: a dipole is refused there).
+trompo::Command<double> command_of(const py::handle& out, bool field) {
+  trompo::Command<double> c;
+  if (out.is_none()) return c;
+  if (!py::isinstance<py::dict>(out))
+    throw py::type_error("controller: must return a dict with keys 'wheel_torques', 'body_torque', 'dipole' (or None), got " +
+                         std::string(py::str(py::type::of(out).attr("__name__"))));
+  for (const auto& [key, value] : py::reinterpret_borrow<py::dict>(out)) {
+    const std::string k = py::isinstance<py::str>(key) ? key.cast<std::string>() : std::string(py::repr(key));
+    if (k == "wheel_torques") c.wheel_torques = command_entry<trompo::ReactionWheels<double>::WheelVector>("wheel_torques", value, -1);
+    else if (k == "body_torque") c.body_torque = command_entry<V3>("body_torque", value, 3);
+    else if (k == "dipole") c.dipole = command_entry<V3>("dipole", value, 3);
+    else throw py::value_error("controller: unknown command '" + k + "' (wheel_torques, body_torque, dipole)");
+  }
+  if (!field && c.dipole != V3::Zero())
+    throw py::value_error("controller: dipole commanded, but the spacecraft has no orbit (no magnetic field)");
+  return c;
+}
+
+/// One control run: trompo-simulate's control path (ControlScene, integrate_sampled with
+/// FixedSteps of --dt, the same dispatch over --scheme/--order) on the spacecraft given as
+/// arrays. `flags`: the CLI's (--inertia, --dt, --t-end, --every, --scheme, --order,
+/// --controller mrp-pd:K,P|bdot:k|code, --control-period, --orbit-*, --max-dipole);
+/// `wheels`: (N, 5) rows axis(3), Js, speed0 then max_torque, max_speed in `limits` (N, 2);
+/// `rotation` (3, 3) body -> space, `omega` (3,); `target` mrp-pd's (3, 3); `controller`
+/// a callable f(t, R, W, wheel_speeds, memory) for --controller code. The GIL is released
+/// while C++ integrates and taken at each sample for the callable only.
+/// Returns (status, rows, messages, raised, t): raised is the controller's exception or
+/// None, t the time of the sample that raised.
+py::tuple control_run(const std::map<std::string, std::string>& flags, const Array& wheels, const Array& limits,
+                      const Array& rotation, const Array& omega, const std::optional<Array>& target,
+                      const py::object& controller, const py::object& memory) {
+  if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 && limits.shape(1) == 2 &&
+        limits.shape(0) == wheels.shape(0)))
+    throw py::value_error("wheels: expected (N, 5) and (N, 2) arrays");
+  if (!(rotation.ndim() == 2 && rotation.shape(0) == 3 && rotation.shape(1) == 3)) throw py::value_error("rotation: expected (3, 3)");
+  if (!(omega.ndim() == 1 && omega.shape(0) == 3)) throw py::value_error("omega: expected (3,)");
+  if (target && !(target->ndim() == 2 && target->shape(0) == 3 && target->shape(1) == 3))
+    throw py::value_error("target: expected (3, 3)");
+  py::object raised = py::none();  // the controller's exception (set with the GIL held)
+  double raised_at = std::numeric_limits<double>::quiet_NaN();  // its sample's t_k
+  Config c;
+  try {
+    c = parse_flags(flags);
+    for (py::ssize_t i = 0; i < wheels.shape(0); ++i) {
+      const double* w = wheels.data() + 5 * i;
+      trompo::Wheel<double> wheel;
+      wheel.axis = V3(w[0], w[1], w[2]);
+      wheel.inertia = w[3];
+      wheel.speed0 = w[4];
+      wheel.max_torque = limits.data()[2 * i];
+      wheel.max_speed = limits.data()[2 * i + 1];
+      trompo::ReactionWheels<double>().add_wheel(wheel);  // its checks, naming the wheel
+      c.control.wheels.push_back(wheel);
+    }
+    if (!c.control.wheels.empty()) c.control.wheels_file = "(trompo.Spacecraft)";
+    check_control(c, flags);  // again, with the wheels (mrp-pd needs axes spanning 3-D)
+    c.rotation_matrix = matrix_of(rotation);
+    c.omega = V3(omega.data()[0], omega.data()[1], omega.data()[2]);
+    if (target) c.control.target_matrix = matrix_of(*target);
+    if (!controller.is_none()) {
+      // Held by pointer (the caller keeps them alive for the run): copies of the function
+      // touch no Python reference count without the GIL.
+      PyObject* fn = controller.ptr();
+      PyObject* mem = memory.ptr();
+      py::object* out = &raised;
+      double* at = &raised_at;
+      const bool field = c.control.orbit_radius.has_value();
+      c.control.code = [fn, mem, out, at, field](const trompo::Sample<double>& s) -> trompo::Command<double> {
+        py::gil_scoped_acquire gil;
+        *at = s.time;
+        try {
+          py::array_t<double> R({3, 3});
+          py::array_t<double> W(3);
+          const auto n = static_cast<py::ssize_t>(s.wheel_speeds.size());
+          py::array_t<double> w(n);
+          const M3 L = s.state.rotation.matrix();
+          double* r = R.mutable_data();
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) r[3 * i + j] = L(i, j);
+          for (int i = 0; i < 3; ++i) W.mutable_data()[i] = s.state.omega(i);
+          for (py::ssize_t i = 0; i < n; ++i) w.mutable_data()[i] = s.wheel_speeds(i);
+          return command_of(py::reinterpret_borrow<py::object>(fn)(s.time, R, W, w, py::handle(mem)), field);
+        } catch (py::error_already_set& e) {
+          *out = e.value();
+          // The traceback (the controller's frames) on the exception itself, so that it
+          // survives as the trompo error's __cause__.
+          if (e.trace()) PyException_SetTraceback(out->ptr(), e.trace().ptr());
+        } catch (const py::cast_error& e) {  // a command that is no array of numbers
+          *out = py::reinterpret_steal<py::object>(
+              PyObject_CallFunction(PyExc_TypeError, "s", (std::string("controller: a command must be numbers: ") + e.what()).c_str()));
+        } catch (const py::builtin_exception& e) {  // command_of's: as the Python exception
+          e.set_error();
+          *out = py::error_already_set().value();
+        }
+        throw ControllerRaised{};
+      };
+    }
+    validate(c);
+  } catch (const invalid_input& e) {
+    throw py::value_error(e.what());
+  }
+  ControlSink sink;
+  int code = 0;
+  std::string error;
+  bool stopped = false;
+  {
+    py::gil_scoped_release no_gil;
+    try {
+      code = simulate(c, sink);
+    } catch (const invalid_input& e) {
+      error = e.what();
+    } catch (const ControllerRaised&) {
+      stopped = true;
+    }
+  }
+  if (!error.empty()) throw py::value_error(error);
+  const auto rows = static_cast<py::ssize_t>(sink.t.size());
+  const auto n = static_cast<py::ssize_t>(c.control.wheels.size());
+  sink.speeds.resize(static_cast<std::size_t>(rows * n));  // wheel_row writes them; none if no row
+  sink.torques.resize(static_cast<std::size_t>(rows * n));
+  std::vector<double> speeds = std::move(sink.speeds), torques = std::move(sink.torques);
+  py::dict d = rows_of(sink);
+  d["wheel_speeds"] = to_array(std::move(speeds), {rows, n});
+  d["u"] = to_array(std::move(torques), {rows, n});
+  py::list messages;
+  for (const auto& m : sink.messages) messages.append(m);
+  return py::make_tuple(stopped ? -1 : code, d, messages, raised, raised_at);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_trompo, m) {
@@ -255,6 +427,10 @@ PYBIND11_MODULE(_trompo, m) {
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
         py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
+  m.def("control_run", &control_run, py::arg("flags"), py::arg("wheels"), py::arg("limits"), py::arg("rotation"),
+        py::arg("omega"), py::arg("target") = py::none(), py::arg("controller") = py::none(),
+        py::arg("memory") = py::none(),
+        "One control run (trompo.control): returns (status, rows, messages, raised, t); status -1: the controller raised at t.");
   m.def("usage", &usage, "trompo-simulate --help");
   m.attr("__version__") = TROMPO_VERSION;
 }

@@ -7,10 +7,17 @@
     out = trompo.ensemble(rotation, omega, case="ht1", t_end=1, threads=2)
     out["R"][i], out["ok"][i]                            # final state of member i
 
+    sc = trompo.Spacecraft([900, 800, 600], wheels=[trompo.Wheel((1, 0, 0), 0.08)])
+    res = trompo.control(sc, trompo.initial_state(rotvec=(0.1, 0, 0)), 60, dt=0.1, period=0.1,
+                         controller=trompo.MrpPd(K=3.5, P=30))  # or f(t, R, W, wheel_speeds, memory)
+
 ``simulate`` runs exactly what ``trompo-simulate`` runs with the same flags (the same
 C++ code: the parser, the checks, the dispatch), so its rows are bit-identical to the
 CLI's CSV rows. See docs/python.md.
 """
+import difflib
+import functools
+import math
 import numbers
 import os
 import re
@@ -27,12 +34,15 @@ except ImportError as e:  # e.g. a pyenv or venv python3 without Debian's python
     raise ImportError(f"trompo needs NumPy, which {sys.executable} cannot import; the module was built for "
                       f"{BUILT_FOR} (docs/python.md, 'Which interpreter')") from e
 
+from ._trompo import control_run as _control_run
 from ._trompo import ensemble_flags as _ensemble_flags
 from ._trompo import simulate_flags as _simulate_flags
 from ._trompo import usage as _usage
 from ._trompo import __version__
 
-__all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__"]
+__all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__",
+           "control", "Wheel", "Orbit", "Spacecraft", "State", "initial_state", "MrpPd", "BDot", "ControlResult",
+           "ControlError", "CommandError"]
 
 #: The keys of simulate()'s dict, in the CSV header's order (R is (n,3,3), W and pi (n,3)).
 COLUMNS = ("t", "R", "W", "H", "mu", "pi", "iterations")
@@ -78,6 +88,25 @@ def _vector(name, x, sizes=(3,)):
         want = " or ".join(str(s) for s in sizes)
         raise ValueError(f"--{name.replace('_', '-')}: expected {want} numbers, got shape {a.shape}")
     return ",".join(repr(float(v)) for v in a)
+
+
+@functools.lru_cache(maxsize=None)
+def _cli_keywords():
+    """The CLI's flags as keywords (--t-end -> t_end), read from its --help: a flag the CLI
+    gains is a keyword at once."""
+    return frozenset(m.replace("-", "_") for m in re.findall(r"--([a-z][a-z0-9-]*)", _usage()))
+
+
+def _check_keywords(function, extra, listed, refused=()):
+    """TypeError, as Python's own for an unexpected keyword, for a keyword that is neither
+    listed by `function` nor a CLI flag, with difflib's nearest known keywords."""
+    known = (set(listed) | _cli_keywords()) - set(refused)
+    for name in extra:
+        if name in known:
+            continue
+        near = difflib.get_close_matches(name, sorted(known), n=3)
+        hint = "; did you mean " + " or ".join(repr(x) for x in near) + "?" if near else ""
+        raise TypeError(f"{function}() got an unexpected keyword argument {name!r}{hint}")
 
 
 _SCALARS = ("alpha", "mgl", "dt", "t_end", "every", "order", "damping", "threads", "gravity_gradient")
@@ -129,8 +158,9 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     the rows up to the last good state) when a step fails beyond recovery. Warns with
     Recovered when sub-stepping was needed. ``inertia`` is J11,J22,J33, six numbers
     J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
-    is passed as the CLI flag ``--name`` (``_`` becomes ``-``): the CLI's own parser
-    accepts it or raises its ValueError (``unknown option '--name' (see --help)``).
+    is passed as the CLI flag ``--name`` (``_`` becomes ``-``) when the CLI has that flag
+    (its --help lists it): the CLI's own parser checks its value. A keyword that is no
+    flag is a TypeError naming it, with a "did you mean" (difflib).
 
     A satellite (docs/spacecraft.md): ``case="sat1"`` or ``"sat2"``, or ``gravity_gradient=n``
     (orbit rate, rad/s) with ``orbit_normal`` and ``radial`` (the radial direction at t = 0);
@@ -143,6 +173,8 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     for name in ("ensemble", "csv", "threads"):
         if name in flags:
             raise TypeError(f"simulate: {name!r} is not for simulate (see trompo.ensemble)")
+    _check_keywords("simulate", flags, simulate.__code__.co_varnames[:simulate.__code__.co_argcount +
+                                                                      simulate.__code__.co_kwonlyargcount])
     status, rows, messages = _simulate_flags(_flags(kwargs))
     if status == 3:
         raise StepFailed(messages[-1], rows)
@@ -200,6 +232,8 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
         if name in flags:
             raise TypeError(f"solve_ivp: {name!r} is not a solve_ivp argument")
+    _check_keywords("solve_ivp", flags, ("case", "t_span", "rtol", "atol", "t_eval", "events", "first_step", "control",
+                                         "dense_output"))
     t0, t1 = 0.0, None
     if t_span is not None:
         t0, t1 = (float(x) for x in t_span)
@@ -359,6 +393,7 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
     for name in ("ensemble", "csv", "every"):
         if name in flags:
             raise TypeError(f"ensemble: {name!r} is not for ensemble")
+    _check_keywords("ensemble", flags, ("rotation", "omega", "mgl", "inertia", "progress"))
     flags = _flags(kwargs)
     flags["--ensemble"] = "(arrays)"
     rotation = np.asarray(rotation, dtype=float)
@@ -389,3 +424,287 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
 def usage():
     """trompo-simulate --help: the vocabulary of simulate()'s keywords."""
     return _usage()
+
+
+# ---- control in the loop (docs/python.md, "Control in the loop from Python") ----
+def _finite(name, x, *, positive=False, nonnegative=False, allow_inf=False):
+    if isinstance(x, bool) or not isinstance(x, (numbers.Real, np.number)):
+        raise ValueError(f"{name}: expected a number, got {x!r}")
+    x = float(x)
+    if math.isnan(x) or (math.isinf(x) and not (allow_inf and x > 0)):
+        raise ValueError(f"{name}: must be finite{' or inf' if allow_inf else ''}, got {x!r}")
+    if positive and not x > 0:
+        raise ValueError(f"{name}: must be > 0, got {x!r}")
+    if nonnegative and not x >= 0:
+        raise ValueError(f"{name}: must be >= 0, got {x!r}")
+    return x
+
+
+def _array(name, x, shape):
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected numbers of shape {shape}, got {x!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite, got {a.tolist()}")
+    return a
+
+
+def _rotation_matrix(name, x):
+    a = _array(name, x, (3, 3))
+    err = np.max(np.abs(a.T @ a - np.eye(3)))
+    if not err <= 1e-9 or not np.linalg.det(a) > 0:
+        raise ValueError(f"{name}: not a rotation matrix (max|R^T R - I| = {err:.3g}, det = {np.linalg.det(a):.6g})")
+    return a
+
+
+class Wheel:
+    """A reaction wheel: spin ``axis`` in body axes (normalised by the engine), axial inertia
+    ``Js`` (kg m^2), initial speed ``speed0`` relative to the body (rad/s), motor torque limit
+    ``max_torque`` (N m) and speed limit ``max_speed`` (rad/s); ``inf``: no limit."""
+
+    def __init__(self, axis, Js, speed0=0.0, max_torque=math.inf, max_speed=math.inf):
+        self.axis = _array("axis", axis, (3,))
+        if not np.any(self.axis != 0):
+            raise ValueError("axis: must be non-zero")
+        self.Js = _finite("Js", Js, positive=True)
+        self.speed0 = _finite("speed0", speed0)
+        self.max_torque = _finite("max_torque", max_torque, positive=True, allow_inf=True)
+        self.max_speed = _finite("max_speed", max_speed, positive=True, allow_inf=True)
+
+    def __repr__(self):
+        return (f"Wheel(axis={self.axis.tolist()}, Js={self.Js!r}, speed0={self.speed0!r}, "
+                f"max_torque={self.max_torque!r}, max_speed={self.max_speed!r})")
+
+
+class Orbit:
+    """A circular orbit of ``radius`` metres and ``inclination`` in RADIANS (the CLI's
+    --orbit-inclination is in degrees): magnetorquers act in the Earth's dipole field along it
+    (IGRF-13 2020.0 centred dipole, docs/control.md)."""
+
+    def __init__(self, radius, inclination=0.0):
+        self.radius = _finite("radius", radius, positive=True)
+        self.inclination = _finite("inclination", inclination)
+
+    def __repr__(self):
+        return f"Orbit(radius={self.radius!r}, inclination={self.inclination!r})"
+
+
+class Spacecraft:
+    """The spacecraft: ``inertia`` the WHOLE spacecraft's (wheels included, as Basilisk's),
+    three principal moments or a symmetric 3x3 array (kg m^2); ``wheels`` a sequence of
+    Wheel (at most 8); ``orbit`` an Orbit for magnetorquers (None: no field, no dipole
+    torque); ``max_dipole`` the magnetorquers' limit per axis (A m^2, needs an orbit)."""
+
+    def __init__(self, inertia, wheels=(), orbit=None, max_dipole=math.inf):
+        try:
+            J = np.array(inertia, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"inertia: expected 3 principal moments or a 3x3 array, got {inertia!r}") from None
+        if J.shape == (3,):
+            J = np.diag(J)
+        if J.shape != (3, 3):
+            raise ValueError(f"inertia: expected 3 principal moments or a 3x3 array, got shape {J.shape}")
+        if not np.all(np.isfinite(J)):
+            raise ValueError(f"inertia: must be finite, got {J.tolist()}")
+        if not np.array_equal(J, J.T):
+            raise ValueError(f"inertia: not symmetric: {J.tolist()}")
+        if not np.all(np.linalg.eigvalsh(J) > 0):
+            raise ValueError(f"inertia: not positive definite: {J.tolist()}")
+        self.inertia = J
+        self.wheels = tuple(wheels)
+        for i, w in enumerate(self.wheels):
+            if not isinstance(w, Wheel):
+                raise ValueError(f"wheels[{i}]: expected a trompo.Wheel, got {w!r}")
+        if len(self.wheels) > 8:
+            raise ValueError(f"wheels: at most 8, got {len(self.wheels)}")
+        if orbit is not None and not isinstance(orbit, Orbit):
+            raise ValueError(f"orbit: expected a trompo.Orbit or None, got {orbit!r}")
+        self.orbit = orbit
+        self.max_dipole = _finite("max_dipole", max_dipole, positive=True, allow_inf=True)
+        if orbit is None and math.isfinite(self.max_dipole):
+            raise ValueError("max_dipole: needs an orbit (magnetorquers act in the field along it)")
+
+    def __repr__(self):
+        return f"Spacecraft(inertia={self.inertia.tolist()}, wheels={list(self.wheels)}, orbit={self.orbit!r}, " \
+               f"max_dipole={self.max_dipole!r})"
+
+
+class State:
+    """An initial state: ``R`` (3,3) body -> space (Λ: a body vector's space components are
+    R @ v) and ``omega`` (3,) the body angular velocity (rad/s, body axes)."""
+
+    def __init__(self, R, omega):
+        self.R = R
+        self.omega = omega
+
+    def __repr__(self):
+        return f"State(R={self.R.tolist()}, omega={self.omega.tolist()})"
+
+
+def _matrix_of_quaternion(q):
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def initial_state(*, rotation=None, quaternion=None, scalar_first=True, rotvec=None, omega=(0.0, 0.0, 0.0)):
+    """The initial state from exactly one of: ``rotation`` a 3x3 rotation matrix body ->
+    space; ``quaternion`` body -> space, scalar first (w, x, y, z) by default as SciPy's
+    ``Rotation.from_quat(q, scalar_first=True)`` (``scalar_first=False``: (x, y, z, w),
+    SciPy's default), normalised; ``rotvec`` a rotation vector (angle * axis, radians) as
+    SciPy's ``from_rotvec`` and the CLI's --rotation. ``omega``: body angular velocity."""
+    given = [n for n, v in (("rotation", rotation), ("quaternion", quaternion), ("rotvec", rotvec)) if v is not None]
+    if len(given) != 1:
+        raise ValueError("initial_state: give exactly one of rotation, quaternion, rotvec"
+                         + (f" (got {', '.join(given)})" if given else ""))
+    if rotation is not None:
+        R = _rotation_matrix("rotation", rotation)
+    elif quaternion is not None:
+        q = _array("quaternion", quaternion, (4,))
+        if not scalar_first:
+            q = np.roll(q, 1)
+        n = np.linalg.norm(q)
+        if not n > 0:
+            raise ValueError("quaternion: must be non-zero")
+        R = _matrix_of_quaternion(q / n)
+    else:
+        v = _array("rotvec", rotvec, (3,))
+        angle = float(np.linalg.norm(v))
+        K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        if angle < 1e-8:  # the series, to round-off
+            R = np.eye(3) + K + K @ K / 2
+        else:
+            R = np.eye(3) + math.sin(angle) / angle * K + (1 - math.cos(angle)) / angle ** 2 * (K @ K)
+    return State(R, _array("omega", omega, (3,)))
+
+
+class MrpPd:
+    """The built-in MRP PD law, run in C++ (no Python call): L = -K sigma - P Omega with
+    sigma the MRP of R_target^T R (|sigma| <= 1), on the wheels by the minimum-norm inverse,
+    else (no wheels) as a body torque (docs/control.md). ``target``: a rotation matrix (target
+    -> space), or None for the identity."""
+
+    def __init__(self, K, P, target=None):
+        self.K = _finite("K", K, nonnegative=True)
+        self.P = _finite("P", P, nonnegative=True)
+        self.target = None if target is None else _rotation_matrix("target", target)
+
+    def __repr__(self):
+        return f"MrpPd(K={self.K!r}, P={self.P!r}, target={None if self.target is None else self.target.tolist()})"
+
+
+class BDot:
+    """The built-in B-dot detumbling law, run in C++: m = -k dB/dt from the field sampled in
+    body axes (needs the spacecraft's orbit); the first sample commands m = 0."""
+
+    def __init__(self, k):
+        self.k = _finite("k", k, nonnegative=True)
+
+    def __repr__(self):
+        return f"BDot(k={self.k!r})"
+
+
+class ControlResult(OdeResult):
+    """trompo.control's rows (a dict with attribute access): ``t`` (n,), ``R`` (n,3,3) body ->
+    space, ``W`` (n,3), ``H``, ``mu``, ``pi`` (n,3), ``iterations``, ``wheel_speeds`` (n,N)
+    relative to the body and ``u`` (n,N) the motor torques held from each row on; ``success``
+    and ``message``."""
+
+
+class ControlError(RuntimeError):
+    """A control run ended early: ``result`` (a ControlResult) holds the rows so far and ``t``
+    the sample at which it stopped. When the Python controller raised, its exception is this
+    one's ``__cause__`` (its traceback kept)."""
+
+    def __init__(self, message, result, t=None):
+        super().__init__(message)
+        self.result = result
+        self.t = t
+
+
+class CommandError(ControlError, ValueError):
+    """The controller's command could not be held (not finite, or not for this spacecraft):
+    the message names the command and t_k. Also a ValueError."""
+
+
+def control(spacecraft, state, t_end, *, dt, period, controller, scheme="simo-kappa", order=2, every=1):
+    """Integrates ``spacecraft`` from ``state`` (initial_state(); t0 = 0) to ``t_end`` with
+    ``controller`` sampled at t_k = k * period, its commands held constant in between
+    (zero-order hold), fixed steps of ``dt`` in between landing on the samples (C++:
+    trompo::integrate_sampled with FixedSteps, on trompo-simulate's control scene).
+
+    ``controller``: MrpPd(K, P, target) or BDot(k), run in C++ without any Python call; or a
+    Python callable ``f(t, R, W, wheel_speeds, memory)`` called at each sample only (the GIL
+    is released while C++ integrates): R (3,3) body -> space, W (3,) body rates, wheel_speeds
+    (N,) relative to the body, memory a dict kept across the run for the controller's own
+    state. It returns a dict with optional keys "wheel_torques" (N,) motor torques (N m),
+    "body_torque" (3,) body axes (N m) and "dipole" (3,) (A m^2, needs an orbit), or None
+    (no command). Commands are saturated by the wheels' and magnetorquers' limits.
+
+    Returns a ControlResult with a row at t0, every ``every``-th step and t_end. Raises
+    ValueError for bad arguments (naming the keyword); CommandError (a ValueError) for a
+    non-finite command or one the spacecraft cannot apply; ControlError chained to the
+    controller's exception if it raises; StepFailed if a step fails beyond recovery. The
+    exceptions carry the rows so far."""
+    if not isinstance(spacecraft, Spacecraft):
+        raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
+    if not isinstance(state, State):
+        raise ValueError(f"state: expected a trompo.State (trompo.initial_state(...)), got {state!r}")
+    t_end = _finite("t_end", t_end, positive=True)
+    dt = _finite("dt", dt, positive=True)
+    period = _finite("period", period, positive=True)
+    if period < dt:
+        raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
+    if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
+        raise ValueError(f"every: must be a positive integer, got {every!r}")
+    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
+        raise ValueError(f"order: must be an integer, got {order!r}")
+    flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--dt": repr(dt), "--t-end": repr(t_end),
+             "--every": str(int(every)), "--scheme": str(scheme), "--control-period": repr(period)}
+    if order != 2:
+        flags["--order"] = str(int(order))
+    if spacecraft.orbit is not None:
+        flags["--orbit-radius"] = repr(spacecraft.orbit.radius)
+        flags["--orbit-inclination"] = repr(math.degrees(spacecraft.orbit.inclination))
+        if math.isfinite(spacecraft.max_dipole):
+            flags["--max-dipole"] = repr(spacecraft.max_dipole)
+    target, fn, memory = None, None, None
+    if isinstance(controller, MrpPd):
+        if spacecraft.wheels:
+            G = np.array([w.axis for w in spacecraft.wheels]).T
+            if np.linalg.matrix_rank(G) < 3:
+                raise ValueError("controller: MrpPd needs wheel axes that span 3-D (or no wheels: a body torque)")
+        flags["--controller"] = f"mrp-pd:{controller.K!r},{controller.P!r}"
+        target = controller.target
+    elif isinstance(controller, BDot):
+        if spacecraft.orbit is None:
+            raise ValueError("controller: BDot needs spacecraft.orbit (the magnetic field)")
+        flags["--controller"] = f"bdot:{controller.k!r}"
+    elif callable(controller):
+        flags["--controller"] = "code"
+        fn, memory = controller, {}
+    else:
+        raise ValueError(f"controller: expected trompo.MrpPd, trompo.BDot or a callable "
+                         f"f(t, R, W, wheel_speeds, memory), got {controller!r}")
+    n = len(spacecraft.wheels)
+    wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
+    limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
+    status, rows, messages, raised, t_raised = _control_run(flags, wheels, limits, state.R, state.omega, target, fn,
+                                                            memory)
+    res = ControlResult(rows)
+    res["success"] = status == 0
+    res["message"] = "ok" if status == 0 else (messages[-1] if messages else "")
+    if status == -1:
+        res["message"] = f"the controller raised {type(raised).__name__} at t = {t_raised!r}"
+        raise ControlError(f"control: {res['message']}: {raised}", res, t_raised) from raised
+    if status == 3:
+        m = re.match(r"control run failed at t = (\S+): (.*)", res["message"])
+        if m and m.group(2).startswith("controller:"):
+            raise CommandError(m.group(2), res, float(m.group(1)))
+        raise StepFailed(res["message"], rows)
+    return res
+# ---- end control ----

@@ -412,12 +412,15 @@ inline ControlScene control_scene(const Config& c) {
 /// --controller as one copyable type (one instantiation of the sampled driver per stepper):
 /// none (u = 0: the wheels spin freely), mrp-pd or bdot.
 struct CliController {
-  int kind = 0;  ///< 0 none, 1 mrp-pd, 2 bdot
+  int kind = 0;  ///< 0 none, 1 mrp-pd, 2 bdot, 3 code (ControlFlags::code: Python's callable)
   trompo::MrpPd<double> pd;
   trompo::BDot<double> bdot;
+  /// Shared by the driver's trial copies: the code keeps its own memory (Python: a dict).
+  std::function<trompo::Command<double>(const trompo::Sample<double>&)> code;
   trompo::Command<double> operator()(const trompo::Sample<double>& s) {
     if (kind == 1) return pd(s);
     if (kind == 2) return bdot(s);
+    if (kind == 3) return code(s);
     return {};
   }
 };
@@ -429,12 +432,16 @@ inline CliController make_controller(const Config& c) {
     ctrl.kind = 1;
     ctrl.pd.K = k.K;
     ctrl.pd.P = k.P;
-    ctrl.pd.target = trompo::SO3d::exp(k.target.value_or(V3::Zero())).matrix();
+    ctrl.pd.target = k.target_matrix ? *k.target_matrix : trompo::SO3d::exp(k.target.value_or(V3::Zero())).matrix();
     ctrl.pd.validate();
   } else if (k.controller == "bdot") {
     ctrl.kind = 2;
     ctrl.bdot.k = k.k;
     ctrl.bdot.validate();
+  } else if (k.controller == "code") {
+    if (!k.code) throw invalid_input("--controller code: a controller given as code (the Python module's trompo.control)");
+    ctrl.kind = 3;
+    ctrl.code = k.code;
   }
   return ctrl;
 }
@@ -504,7 +511,7 @@ inline int run_control(const Config& c, RowSink& out) {
   using namespace trompo;
   const ControlScene scene = control_scene(c);
   State<double> s0;
-  s0.rotation = SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
   s0.omega = c.omega;
   int code = 0;
   const bool known = RegisteredSchemes::visit(c.scheme, [&](auto entry) {
@@ -585,7 +592,7 @@ void validate(const Config& c) {
   State<double> s0;
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
-  s0.rotation = SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
   s0.omega = c.omega;
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.

@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -146,6 +147,12 @@ struct ControlFlags {
   std::optional<double> orbit_radius;          ///< --orbit-radius (m): a magnetic field
   std::optional<double> inclination_deg;       ///< --orbit-inclination (degrees)
   std::optional<double> max_dipole;            ///< --max-dipole (A m^2 per axis)
+  /// --controller code: a controller given as code, not as a flag (the Python module's
+  /// trompo.control with a callable); the CLI has none to give, and refuses it.
+  std::function<trompo::Command<double>(const trompo::Sample<double>&)> code;
+  /// mrp-pd's target as a matrix (the Python module's trompo.MrpPd(target=...)), in place
+  /// of --target-rotation's rotation vector: no round trip through the logarithm.
+  std::optional<M3> target_matrix;
   /// Whether the run is a control run (one scene type for all of them, simulate_core.cpp).
   bool on() const {
     return !wheels_file.empty() || !controller.empty() || period || target || orbit_radius || inclination_deg || max_dipole;
@@ -195,6 +202,9 @@ struct Config {
   V3 com = V3::UnitZ();
   V3 up = V3::UnitZ();
   V3 rotation = V3::Zero();
+  /// The initial attitude as a matrix (body -> space), in place of --rotation: the Python
+  /// module's trompo.initial_state, so that a matrix or quaternion goes in unrounded.
+  std::optional<M3> rotation_matrix;
   V3 omega = V3::Zero();
   std::optional<double> dt;
   std::optional<double> t_end;
@@ -450,6 +460,9 @@ inline bool parse_control_flag(const std::string& flag, const std::string& value
       if (colon == std::string::npos) throw invalid_input("--controller bdot: expected bdot:k, got '" + value + "'");
       k.k = parse_number(flag + " bdot: k", args);
       if (!(k.k >= 0)) throw invalid_input("--controller bdot: k must be >= 0, got '" + value + "'");
+    } else if (name == "code" && colon == std::string::npos) {
+      // A controller given as code (ControlFlags::code): the Python module's; without it
+      // make_controller refuses the run.
     } else {
       throw invalid_input("--controller: unknown controller '" + name + "' (mrp-pd:K,P or bdot:k)");
     }

@@ -1,0 +1,310 @@
+"""trompo.control: control in the loop from Python (docs/python.md, "Control in the loop from
+Python"). A numpy MRP-PD law gives the built-in MrpPd's rows bit for bit; the callable is
+called exactly at the samples; the three ways to give the initial attitude agree; a raising
+controller and a non-finite command end the run with the rows so far; unknown keywords are
+TypeErrors with a suggestion; the GIL is released while C++ integrates."""
+import math
+import threading
+import traceback
+
+import numpy as np
+import pytest
+
+import trompo
+from conftest import run_cli
+
+RPM = 2 * math.pi / 60
+JS = 50 / (6000 * RPM)  # 50 N m s at 6000 rpm
+
+
+def rotation_of_mrp(sigma):
+    """C++ trompo::rotation_of_mrp: Λ = [BN]^T, [BN] = I + (8S² − 4(1 − σᵀσ)S)/(1 + σᵀσ)²."""
+    s = np.asarray(sigma, dtype=float)
+    s2 = s @ s
+    S = np.array([[0, -s[2], s[1]], [s[2], 0, -s[0]], [-s[1], s[0], 0]])
+    BN = np.eye(3) + (8 * S @ S - 4 * (1 - s2) * S) / ((1 + s2) * (1 + s2))
+    return BN.T
+
+
+def basilisk():
+    """Basilisk's scenarioAttitudeFeedbackRW (examples/example_attitude_feedback_rw.cpp)."""
+    wheels = [trompo.Wheel(axis, JS, speed0=rpm * RPM, max_torque=0.2, max_speed=6000 * RPM)
+              for axis, rpm in zip(np.eye(3), (100, 200, 300))]
+    sc = trompo.Spacecraft([900, 800, 600], wheels=wheels)
+    state = trompo.initial_state(rotation=rotation_of_mrp((0.1, 0.2, -0.3)), omega=(0.001, -0.01, 0.03))
+    return sc, state
+
+
+def mrp_of_matrix(m):
+    """σ of a rotation matrix m = [BR]ᵀ as C++ mrp_of_relative: Eigen's quaternion of m
+    (Shoemake's algorithm, the same operations in the same order), w >= 0, σ = v/(1 + w).
+    Eigen's trace() sums the diagonal as a tree, m00 + (m11 + m22) (redux_novec_unroller
+    splits 3 as 1 + 2): summed left to right instead, the rows differ in the last bit from
+    t = 1.7 s on."""
+    t = m[0][0] + (m[1][1] + m[2][2])
+    q = [0.0, 0.0, 0.0, 0.0]  # x, y, z, w as Eigen's coeffs()
+    if t > 0:
+        t = math.sqrt(t + 1.0)
+        q[3] = 0.5 * t
+        t = 0.5 / t
+        q[0] = (m[2][1] - m[1][2]) * t
+        q[1] = (m[0][2] - m[2][0]) * t
+        q[2] = (m[1][0] - m[0][1]) * t
+    else:
+        i = 0
+        if m[1][1] > m[0][0]:
+            i = 1
+        if m[2][2] > m[i][i]:
+            i = 2
+        j = (i + 1) % 3
+        k = (j + 1) % 3
+        t = math.sqrt(m[i][i] - m[j][j] - m[k][k] + 1.0)
+        q[i] = 0.5 * t
+        t = 0.5 / t
+        q[3] = (m[k][j] - m[j][k]) * t
+        q[j] = (m[j][i] + m[i][j]) * t
+        q[k] = (m[k][i] + m[i][k]) * t
+    if q[3] < 0:
+        q = [-x for x in q]
+    return [q[0] / (1.0 + q[3]), q[1] / (1.0 + q[3]), q[2] / (1.0 + q[3])]
+
+
+def mrp_pd(K, P):
+    """The MRP PD law in Python, to the identity target, on three wheels along the body axes:
+    L = −Kσ − PΩ, u = −G_sᵀ(G_sG_sᵀ)⁻¹L = −L (G_s = I: the C++ products and the cofactor
+    inverse are exact there, so only σ's operations matter)."""
+    def f(t, R, W, wheel_speeds, memory):
+        s = mrp_of_matrix(R.tolist())  # target = I: Rᵀ_target Λ = Λ exactly
+        w = W.tolist()
+        L = [-K * s[i] - P * w[i] for i in range(3)]
+        memory["calls"] = memory.get("calls", 0) + 1
+        return {"wheel_torques": np.array([-L[0], -L[1], -L[2]])}
+    return f
+
+
+def test_python_mrp_pd_gives_the_builtin_rows_bit_for_bit():
+    sc, s0 = basilisk()
+    run = dict(dt=0.05, period=0.1)
+    builtin = trompo.control(sc, s0, 20.0, controller=trompo.MrpPd(K=3.5, P=30), **run)
+    python = trompo.control(sc, s0, 20.0, controller=mrp_pd(3.5, 30.0), **run)
+    assert builtin.success and python.success
+    assert len(builtin.t) == 401 and builtin.wheel_speeds.shape == (401, 3) and builtin.u.shape == (401, 3)
+    for key in ("t", "R", "W", "H", "mu", "pi", "wheel_speeds", "u"):
+        np.testing.assert_array_equal(python[key], builtin[key], err_msg=key)
+    # the law did act: the wheels saturate at first, and the attitude settles
+    assert np.max(np.abs(builtin.u)) == 0.2
+    assert builtin.u[0].tolist() != [0.0, 0.0, 0.0]
+
+
+def test_the_controller_is_called_exactly_at_the_samples():
+    sc, s0 = basilisk()
+    seen = []
+
+    def f(t, R, W, wheel_speeds, memory):
+        seen.append(t)
+        memory["n"] = memory.get("n", 0) + 1
+        assert memory["n"] == len(seen)  # the same dict across the run
+        assert R.shape == (3, 3) and W.shape == (3,) and wheel_speeds.shape == (3,)
+        return None
+
+    res = trompo.control(sc, s0, 2.0, dt=0.01, period=0.25, controller=f, every=5)
+    assert seen == [k * 0.25 for k in range(8)]
+    assert res.t[0] == 0 and res.t[-1] == 2.0 and len(res.t) == 41
+    assert np.all(res.u == 0)
+    # a period that does not divide t_end: the last hold is shorter
+    seen.clear()
+    trompo.control(sc, s0, 1.0, dt=0.05, period=0.3, controller=f)
+    assert seen == [0.0, 0.3, 0.6, 0.8999999999999999]  # t_k = k * T, multiplied, not summed
+
+
+def test_state_from_matrix_quaternion_and_rotvec_agree():
+    sc, _ = basilisk()
+    R = rotation_of_mrp((0.1, 0.2, -0.3))
+    # the quaternion (w, x, y, z) and rotation vector of R
+    w = math.sqrt(1 + np.trace(R)) / 2
+    q = np.array([w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)])
+    angle = 2 * math.atan2(np.linalg.norm(q[1:]), q[0])
+    rotvec = angle * q[1:] / np.linalg.norm(q[1:])
+    states = [trompo.initial_state(rotation=R, omega=(0.001, -0.01, 0.03)),
+              trompo.initial_state(quaternion=q, omega=(0.001, -0.01, 0.03)),
+              trompo.initial_state(quaternion=np.roll(q, -1), scalar_first=False, omega=(0.001, -0.01, 0.03)),
+              trompo.initial_state(rotvec=rotvec, omega=(0.001, -0.01, 0.03))]
+    for s in states[1:]:
+        np.testing.assert_allclose(s.R, R, rtol=0, atol=1e-15)
+    finals = [trompo.control(sc, s, 5.0, dt=0.1, period=0.1, controller=trompo.MrpPd(3.5, 30)).R[-1] for s in states]
+    for f in finals[1:]:
+        np.testing.assert_allclose(f, finals[0], rtol=0, atol=1e-13)
+    try:
+        from scipy.spatial.transform import Rotation
+    except ImportError:
+        return
+    np.testing.assert_allclose(Rotation.from_quat(np.roll(q, -1)).as_matrix(), R, atol=1e-15)
+    np.testing.assert_allclose(Rotation.from_rotvec(rotvec).as_matrix(), R, atol=1e-15)
+    with pytest.raises(ValueError, match="exactly one of rotation, quaternion, rotvec"):
+        trompo.initial_state(rotation=R, rotvec=rotvec)
+
+
+def test_an_exception_in_the_controller_ends_the_run_with_the_rows_so_far():
+    sc, s0 = basilisk()
+
+    def failing_controller(t, R, W, wheel_speeds, memory):
+        if t >= 1.0:
+            raise ZeroDivisionError("the law divided by zero")
+        return {"wheel_torques": [0.01, 0.0, 0.0]}
+
+    with pytest.raises(trompo.ControlError) as e:
+        trompo.control(sc, s0, 5.0, dt=0.05, period=0.1, controller=failing_controller)
+    err = e.value
+    assert isinstance(err.__cause__, ZeroDivisionError)
+    assert "ZeroDivisionError at t = 1.0" in str(err) and err.t == 1.0
+    frames = [fr.name for fr in traceback.extract_tb(err.__cause__.__traceback__)]
+    assert "failing_controller" in frames
+    rows = err.result
+    assert rows.t[0] == 0 and rows.t[-1] == pytest.approx(0.95) and len(rows.t) == 20
+    assert np.all(rows.u[:, 0] == 0.01)
+    # a bad return value is a controller error too, chained the same way
+    with pytest.raises(trompo.ControlError) as e:
+        trompo.control(sc, s0, 1.0, dt=0.05, period=0.1, controller=lambda *a: {"torque": [1, 2, 3]})
+    assert isinstance(e.value.__cause__, ValueError) and "unknown command 'torque'" in str(e.value.__cause__)
+    with pytest.raises(trompo.ControlError) as e:  # no orbit: no field for a dipole
+        trompo.control(sc, s0, 1.0, dt=0.05, period=0.1, controller=lambda *a: {"dipole": [1, 0, 0]})
+    assert "no orbit" in str(e.value.__cause__)
+
+
+def test_a_non_finite_command_raises_value_error_naming_it_and_t_k():
+    sc, s0 = basilisk()
+
+    def f(t, R, W, wheel_speeds, memory):
+        return {"wheel_torques": [0.0, math.nan if t >= 0.5 else 0.0, 0.0]}
+
+    with pytest.raises(ValueError, match=r"non-finite command wheel_torques at t = 0\.5$") as e:
+        trompo.control(sc, s0, 2.0, dt=0.1, period=0.1, controller=f)
+    assert isinstance(e.value, trompo.CommandError) and e.value.t == 0.5
+    assert e.value.result.t[-1] == 0.5 and not e.value.result.success
+    with pytest.raises(trompo.CommandError, match="body_torque at t = 0"):
+        trompo.control(sc, s0, 1.0, dt=0.1, period=0.1, controller=lambda *a: {"body_torque": [math.inf, 0, 0]})
+    with pytest.raises(trompo.CommandError, match="wheel_torques has 2 entries for 3 wheels at t = 0"):
+        trompo.control(sc, s0, 1.0, dt=0.1, period=0.1, controller=lambda *a: {"wheel_torques": [0, 0]})
+
+
+def test_objects_are_validated_in_python_words():
+    with pytest.raises(ValueError, match="^axis: must be non-zero"):
+        trompo.Wheel((0, 0, 0), 1.0)
+    with pytest.raises(ValueError, match="^Js: must be > 0"):
+        trompo.Wheel((1, 0, 0), -1.0)
+    with pytest.raises(ValueError, match="^radius: must be > 0"):
+        trompo.Orbit(-7e6)
+    with pytest.raises(ValueError, match="^inertia: not positive definite"):
+        trompo.Spacecraft([1, -2, 3])
+    with pytest.raises(ValueError, match="^max_dipole: needs an orbit"):
+        trompo.Spacecraft([1, 2, 3], max_dipole=5)
+    sc, s0 = basilisk()
+    with pytest.raises(ValueError, match="^period: 0.01 is shorter than the step dt = 0.1"):
+        trompo.control(sc, s0, 1.0, dt=0.1, period=0.01, controller=trompo.MrpPd(1, 1))
+    with pytest.raises(ValueError, match="^controller: BDot needs spacecraft.orbit"):
+        trompo.control(sc, s0, 1.0, dt=0.1, period=0.1, controller=trompo.BDot(1e4))
+
+
+def test_bdot_runs_in_the_field():
+    sc = trompo.Spacecraft([10, 12, 14], orbit=trompo.Orbit(6.778e6, math.radians(51.6)), max_dipole=1.0)
+    s0 = trompo.initial_state(rotvec=(0, 0, 0), omega=(0.05, -0.04, 0.03))
+    res = trompo.control(sc, s0, 600.0, dt=0.5, period=1.0, controller=trompo.BDot(3e5), every=100)
+    assert res.success and res.wheel_speeds.shape == (len(res.t), 0)
+    assert np.linalg.norm(res.W[-1]) < np.linalg.norm(res.W[0])
+
+
+def test_unknown_keywords_are_type_errors_with_a_suggestion():
+    with pytest.raises(TypeError, match=r"simulate\(\) got an unexpected keyword argument 't_edn'; did you mean 't_end'"):
+        trompo.simulate(case="ht1", t_edn=1)
+    with pytest.raises(TypeError, match=r"solve_ivp\(\) got an unexpected keyword argument 'rtl'; did you mean 'rtol'"):
+        trompo.solve_ivp("ht1", (0, 1), rtl=1e-6)
+    with pytest.raises(TypeError, match=r"ensemble\(\) got an unexpected keyword argument 'thread'; did you mean 'threads'"):
+        trompo.ensemble(np.zeros((1, 3)), np.ones((1, 3)), case="ht1", t_end=0.1, thread=1)
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'xyzzy'$"):
+        trompo.simulate(case="ht1", xyzzy=1)
+    # a CLI flag simulate() does not list still goes to the CLI's parser, with its message
+    rc, _, err = run_cli(["--case", "ht1", "--max-dipole", "-1"])
+    with pytest.raises(ValueError) as e:
+        trompo.simulate(case="ht1", max_dipole=-1)
+    assert rc == 2 and str(e.value) == err.strip().removeprefix("trompo-simulate: ")
+
+
+def test_the_gil_is_released_while_cpp_integrates():
+    """Two samples: at the first the controller lets a worker thread go; at the second it
+    looks whether the worker ran. Between them only C++ runs (a long hold of 500 000 steps):
+    the worker can run there only if the GIL is released."""
+    sc, s0 = basilisk()
+    go, worker_ran = threading.Event(), threading.Event()
+    seen = []
+
+    def worker():
+        go.wait()
+        worker_ran.set()
+
+    def f(t, R, W, wheel_speeds, memory):
+        if t > 0:
+            seen.append(worker_ran.is_set())  # first thing at the second sample
+        else:
+            go.set()
+        return None
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    try:
+        trompo.control(sc, s0, 5000.0, dt=0.01, period=2500.0, controller=f, every=10**6)
+    finally:
+        go.set()
+        thread.join()
+    assert seen == [True]
+
+
+def test_the_example_runs_and_plots(tmp_path):
+    """examples/python/attitude_control.py on a short run (matplotlib, Agg)."""
+    pytest.importorskip("matplotlib")
+    import os
+    import pathlib
+    import subprocess
+    import sys
+    root = pathlib.Path(os.environ.get("TROMPO_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+    png = tmp_path / "attitude.png"
+    p = subprocess.run([sys.executable, str(root / "examples/python/attitude_control.py"), str(png), "--t-end", "5"],
+                       capture_output=True, text=True, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert p.returncode == 0, p.stderr
+    assert "51 rows" in p.stdout and png.stat().st_size > 1000
+
+
+def test_the_builtin_controller_gives_the_cli_rows(tmp_path):
+    """trompo.control with MrpPd runs trompo-simulate's control path: the CLI's rows, wheel
+    columns included, bit for bit (identity start: the same quaternion both ways)."""
+    from conftest import cli_path
+    import subprocess
+    sc, _ = basilisk()
+    s0 = trompo.initial_state(rotation=np.eye(3), omega=(0.001, -0.01, 0.03))
+    wheels = tmp_path / "wheels.csv"
+    wheels.write_text("gx,gy,gz,Js,speed0,max_torque,max_speed\n" + "".join(
+        f"{w.axis[0]!r},{w.axis[1]!r},{w.axis[2]!r},{w.Js!r},{w.speed0!r},{w.max_torque!r},{w.max_speed!r}\n"
+        for w in sc.wheels))
+    p = subprocess.run([cli_path(), "--inertia", "900,800,600", "--wheels", str(wheels), "--omega", "0.001,-0.01,0.03",
+                        "--controller", "mrp-pd:3.5,30", "--control-period", "0.1", "--target-rotation", "0.1,0,0",
+                        "--dt", "0.05", "--t-end", "5", "--order", "4"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    lines = p.stdout.splitlines()
+    assert lines[0].endswith(",wheel1,wheel2,wheel3,u1,u2,u3")
+    a = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    target = trompo.initial_state(rotvec=(0.1, 0, 0)).R  # not C++'s exp to the bit: give the CLI's
+    res = trompo.control(sc, s0, 5.0, dt=0.05, period=0.1, order=4, controller=trompo.MrpPd(3.5, 30, target=target))
+    assert len(res.t) == len(a) == 101
+    np.testing.assert_allclose(res.R.reshape(-1, 9), a[:, 1:10], rtol=0, atol=1e-13)
+    # without a target (identity both ways) the bits agree
+    p = subprocess.run([cli_path(), "--inertia", "900,800,600", "--wheels", str(wheels), "--omega", "0.001,-0.01,0.03",
+                        "--controller", "mrp-pd:3.5,30", "--control-period", "0.1", "--dt", "0.05", "--t-end", "5",
+                        "--order", "4"], capture_output=True, text=True)
+    a = np.array([[float(x) for x in line.split(",")] for line in p.stdout.splitlines()[1:]])
+    res = trompo.control(sc, s0, 5.0, dt=0.05, period=0.1, order=4, controller=trompo.MrpPd(3.5, 30))
+    np.testing.assert_array_equal(res.t, a[:, 0])
+    np.testing.assert_array_equal(res.R.reshape(-1, 9), a[:, 1:10])
+    np.testing.assert_array_equal(res.W, a[:, 10:13])
+    np.testing.assert_array_equal(res.H, a[:, 13])
+    np.testing.assert_array_equal(res.pi, a[:, 15:18])
+    np.testing.assert_array_equal(res.wheel_speeds, a[:, 19:22])
+    np.testing.assert_array_equal(res.u, a[:, 22:25])

@@ -6,6 +6,7 @@
 #      one progress line per finished benchmark (count of total, elapsed time, case and method)
 #   4. /usr/bin/python3 -m report (the package scripts/report/): report/report.md, *.csv, *.png
 #      and report/accuracy.md, the docs page generated whole from this run
+#   5. trompo-bench-control (four closed loops against odeint) and its table, report/control.md
 # About 12 minutes on 2 cores after the build (2,980 benchmarks: 682 s measured; 807 s from a clean clone). Run it on a quiet machine: the timings are CPU times of a
 # single thread, but a busy machine still inflates them (caches, frequency).
 # Usage: scripts/report.sh [extra trompo-bench flags, e.g. --benchmark_filter=ht1]
@@ -29,7 +30,7 @@ if [ "${TROMPO_REPORT_CONFIGURE_ONLY:-0}" = 1 ]; then
   echo "   configured in $build (TROMPO_REPORT_CONFIGURE_ONLY)"
   exit 0
 fi
-cmake --build "$build" --target trompo-bench -j"$(nproc)"
+cmake --build "$build" --target trompo-bench trompo-bench-control -j"$(nproc)"
 
 # Copies Google Benchmark's console output (stdin) to the file $1, unchanged, and prints one
 # line per finished benchmark: [done/total] elapsed, kind (step/sweep), case, method, h.
@@ -66,8 +67,13 @@ echo "== trompo-bench: long-run energy series -> $out/energy_series.csv"
 echo "== trompo-bench: sat1 over 1000 orbits -> $out/satellite_series.csv"
 "$build/bench/trompo-bench" --trompo_satellite_series="$out/satellite_series.csv"
 
+echo "== trompo-bench-control: closed loops against odeint (about 2 minutes) -> $out/control.json"
+"$build/bench/trompo-bench-control" --benchmark_out="$out/control.json" --benchmark_out_format=json >"$out/control_console.txt"
+
 echo "== report"
 PYTHONPATH=scripts /usr/bin/python3 -m report "$out"
+/usr/bin/python3 scripts/control/report.py "$out/control.json" >"$out/control.md"
+echo "   closed-loop targets: $out/control.md (docs/control.md, \"Closed loops\")"
 if [ "${TROMPO_UPDATE_DOCS:-0}" = 1 ]; then
   cp "$out"/{work_precision,work_precision_core,frontier,energy_vs_h,energy_over_time,newton_vs_h,satellite,adaptive_tolerance,adaptive_work_precision}.png docs/img/
   mkdir -p docs/img/families  # the families (docs/families.md, scripts/report/families.py)

@@ -253,6 +253,67 @@ std::string with_entry(const Scene& scene, const trompo::State<double>& s, Reade
   return exercise(StateStepper<Stepper<S, Scene>>(scheme, scene, opt), s, in, wild);
 }
 
+/// The sampled driver on a control scene: a controller of drawn (possibly wild) commands
+/// sampled every T, held, and fixed steps between the samples by a drawn wheel-carrying
+/// scheme. Contract: integrate_sampled throws invalid_input or returns; ok means the state
+/// is finite at t_end exactly; otherwise the state is finite at a time in [t0, t_end].
+template <class Scene>
+std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader& in, bool wild) {
+  using namespace trompo;
+  std::ostringstream why;
+  const double period = in.magnitude(-3, 0.5, wild, false);
+  const double h = period / static_cast<double>(1 + in.choose(4));
+  const double t0 = s.time;
+  const double t_end = t0 + period * static_cast<double>(in.choose(6)) * (in.byte() & 1 ? 1.0 : 0.7);
+  double values[4];
+  for (double& v : values) v = in.magnitude(-3, 1, wild);
+  const int n_wheels = scene.template effect<ReactionWheels<double>>().size();
+  struct Replay {
+    double v[4];
+    int n;
+    int k = 0;
+    Command<double> operator()(const Sample<double>&) {
+      Command<double> c;
+      c.wheel_torques = ReactionWheels<double>::WheelVector::Constant(n, v[k % 4]);
+      c.body_torque = Vec3(v[(k + 1) % 4], 0, 0);
+      c.dipole = Vec3(0, v[(k + 2) % 4], 0);
+      ++k;
+      return c;
+    }
+  } ctrl{{values[0], values[1], values[2], values[3]}, n_wheels};
+  SampledSummary<double> sum;
+  try {
+    switch (in.choose(3)) {
+      case 0: {
+        Stepper<SimoKappa, Scene> st(SimoKappa{}, scene);
+        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+        break;
+      }
+      case 1: {
+        Stepper<RK4, Scene> st(RK4{}, scene);
+        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+        break;
+      }
+      default: {
+        Stepper<Splitting, Scene> st(Splitting(), scene);
+        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+      }
+    }
+  } catch (const invalid_input&) {
+    return {};
+  }
+  if (sum.ok() && !(s.time == t_end)) {
+    why << "sampled: ok but t = " << s.time << " != t_end = " << t_end;
+    return why.str();
+  }
+  if (!finite_state(s)) return "sampled: the state is not finite after the run (" + sum.reason() + ")";
+  if (!(s.time >= std::min(t0, t_end) && s.time <= std::max(t0, t_end))) {
+    why << "sampled: t = " << s.time << " outside [" << t0 << ", " << t_end << "]";
+    return why.str();
+  }
+  return {};
+}
+
 /// One registered scheme that steps Scene, drawn from the input.
 template <class Scene>
 std::string with_scheme(const Scene& scene, const trompo::State<double>& s, Reader& in, bool wild) {
@@ -327,7 +388,9 @@ inline std::string check(const std::uint8_t* data, std::size_t size) {
         Magnetorquer<double> mtq(DipoleField<double>(CircularOrbit<double>(in.magnitude(6.5, 7.5, wild, false), in.unit())));
         mtq.dipole = in.vector(-3, 1, wild);
         using S = Scene<double, ReactionWheels<double>, HeldBodyTorque<double>, Magnetorquer<double>>;
-        return with_scheme(S(hub, rw, HeldBodyTorque<double>(in.vector(-3, 1, wild)), mtq), s, in, wild);
+        const S scene(hub, rw, HeldBodyTorque<double>(in.vector(-3, 1, wild)), mtq);
+        if (in.byte() & 1) return exercise_sampled(scene, s, in, wild);
+        return with_scheme(scene, s, in, wild);
       }
       case 1: return with_scheme(HeavyTop<double>(body, UniformGravity<double>(Mgl, E, up)), s, in, wild);
       case 2: {

@@ -49,27 +49,8 @@ def scenario():
     return sc, s0
 
 
-def mrp(R):
-    """σ_BR (target = identity) as C++ mrp_of_relative: the vector part of the quaternion of
-    R (Eigen's convention, Shoemake's branches), w >= 0, σ = v/(1 + w), |σ| <= 1."""
-    m = R
-    tr = m[0, 0] + m[1, 1] + m[2, 2]
-    q = np.empty(4)  # x, y, z, w
-    if tr > 0:
-        t = math.sqrt(tr + 1)
-        q[3] = t / 2
-        q[:3] = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]]) * (0.5 / t)
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        t = math.sqrt(m[i, i] - m[j, j] - m[k, k] + 1)
-        q[i] = t / 2
-        q[3] = (m[k, j] - m[j, k]) * (0.5 / t)
-        q[j] = (m[j, i] + m[i, j]) * (0.5 / t)
-        q[k] = (m[k, i] + m[i, k]) * (0.5 / t)
-    if q[3] < 0:
-        q = -q
-    return q[:3] / (1 + q[3])
+mrp = trompo.mrp  # σ of a rotation matrix, as the C++ law computes it
+
 
 
 MINUS_GINV = -AXES.T @ np.linalg.inv(AXES @ AXES.T)  # u = −G_sᵀ(G_sG_sᵀ)⁻¹ L

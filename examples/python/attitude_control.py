@@ -29,25 +29,8 @@ def rotation_of_mrp(s):
     return (np.eye(3) + (8 * S @ S - 4 * (1 - s2) * S) / (1 + s2) ** 2).T
 
 
-def mrp(R):
-    """sigma of R (target = identity), |sigma| <= 1, from the quaternion of R."""
-    q = np.empty(4)  # x, y, z, w
-    tr = np.trace(R)
-    if tr > 0:
-        t = math.sqrt(tr + 1)
-        q[3] = t / 2
-        q[:3] = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) * (0.5 / t)
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        t = math.sqrt(R[i, i] - R[j, j] - R[k, k] + 1)
-        q[i] = t / 2
-        q[3] = (R[k, j] - R[j, k]) * (0.5 / t)
-        q[j] = (R[j, i] + R[i, j]) * (0.5 / t)
-        q[k] = (R[k, i] + R[i, k]) * (0.5 / t)
-    if q[3] < 0:
-        q = -q
-    return q[:3] / (1 + q[3])
+mrp = trompo.mrp  # σ of a rotation matrix, as the C++ law computes it
+
 
 
 def main():

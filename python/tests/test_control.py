@@ -35,38 +35,7 @@ def basilisk():
     return sc, state
 
 
-def mrp_of_matrix(m):
-    """σ of a rotation matrix m = [BR]ᵀ as C++ mrp_of_relative: Eigen's quaternion of m
-    (Shoemake's algorithm, the same operations in the same order), w >= 0, σ = v/(1 + w).
-    Eigen's trace() sums the diagonal as a tree, m00 + (m11 + m22) (redux_novec_unroller
-    splits 3 as 1 + 2): summed left to right instead, the rows differ in the last bit from
-    t = 1.7 s on."""
-    t = m[0][0] + (m[1][1] + m[2][2])
-    q = [0.0, 0.0, 0.0, 0.0]  # x, y, z, w as Eigen's coeffs()
-    if t > 0:
-        t = math.sqrt(t + 1.0)
-        q[3] = 0.5 * t
-        t = 0.5 / t
-        q[0] = (m[2][1] - m[1][2]) * t
-        q[1] = (m[0][2] - m[2][0]) * t
-        q[2] = (m[1][0] - m[0][1]) * t
-    else:
-        i = 0
-        if m[1][1] > m[0][0]:
-            i = 1
-        if m[2][2] > m[i][i]:
-            i = 2
-        j = (i + 1) % 3
-        k = (j + 1) % 3
-        t = math.sqrt(m[i][i] - m[j][j] - m[k][k] + 1.0)
-        q[i] = 0.5 * t
-        t = 0.5 / t
-        q[3] = (m[k][j] - m[j][k]) * t
-        q[j] = (m[j][i] + m[i][j]) * t
-        q[k] = (m[k][i] + m[i][k]) * t
-    if q[3] < 0:
-        q = [-x for x in q]
-    return [q[0] / (1.0 + q[3]), q[1] / (1.0 + q[3]), q[2] / (1.0 + q[3])]
+mrp_of_matrix = trompo.mrp
 
 
 def mrp_pd(K, P):

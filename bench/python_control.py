@@ -49,7 +49,9 @@ def scenario():
     return sc, s0
 
 
-mrp = trompo.mrp  # σ of a rotation matrix, as the C++ law computes it
+def mrp(R):
+    """σ of a rotation matrix, as the C++ law computes it (trompo.mrp), as a NumPy vector."""
+    return np.array(trompo.mrp(R))
 
 
 

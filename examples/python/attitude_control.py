@@ -29,7 +29,9 @@ def rotation_of_mrp(s):
     return (np.eye(3) + (8 * S @ S - 4 * (1 - s2) * S) / (1 + s2) ** 2).T
 
 
-mrp = trompo.mrp  # σ of a rotation matrix, as the C++ law computes it
+def mrp(R):
+    """σ of a rotation matrix, as the C++ law computes it (trompo.mrp), as a NumPy vector."""
+    return np.array(trompo.mrp(R))
 
 
 

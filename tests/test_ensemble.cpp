@@ -40,7 +40,7 @@ bool same_summary(const IntegrationSummary<double>& a, const IntegrationSummary<
 
 }  // namespace
 
-TEST_CASE("ensemble: each member is bit-identical to its single integrate run, for 1, 2 and 3 threads", "[ensemble]") {
+TEST_CASE("ensemble: each member is bit-identical to its single integrate run, for 1, 2 and 3 threads and any chunk", "[ensemble]") {
   const auto ht1 = cases::ht1<double>();
   const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
   const auto start = ht1_members(7);
@@ -50,10 +50,13 @@ TEST_CASE("ensemble: each member is bit-identical to its single integrate run, f
   std::vector<IntegrationSummary<double>> single_sum;
   for (auto& s : single) single_sum.push_back(integrate(stepper, s, t_end, h));
 
-  for (unsigned threads : {1u, 2u, 3u}) {
-    INFO("threads " << threads);
+  // Chunks of 1, 2 and the default (dynamic schedule, ensemble.hpp): whichever thread takes a
+  // member, its result is the same.
+  for (unsigned threads : {1u, 2u, 3u})
+  for (std::size_t chunk : {std::size_t(0), std::size_t(1), std::size_t(2)}) {
+    INFO("threads " << threads << ", chunk " << chunk);
     auto members = start;
-    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads});
+    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads, .chunk = chunk});
     REQUIRE(sums.size() == members.size());
     for (std::size_t i = 0; i < members.size(); ++i) {
       INFO("member " << i);
@@ -63,6 +66,13 @@ TEST_CASE("ensemble: each member is bit-identical to its single integrate run, f
       CHECK(same_summary(sums[i], single_sum[i]));
     }
   }
+}
+
+TEST_CASE("ensemble: the default chunk", "[ensemble]") {
+  CHECK(ensemble_chunk(10, 2) == 1);
+  CHECK(ensemble_chunk(1600, 2) == 50);
+  CHECK(ensemble_chunk(16384, 16) == 64);
+  CHECK(ensemble_chunk(100000, 2) == 64);
 }
 
 TEST_CASE("ensemble: per-member scenes (inertia and weight) and a composed stepper", "[ensemble]") {

@@ -33,6 +33,9 @@
 // its state and written back once at the end, so threads do not share cache lines while
 // they step.
 //
+// Adaptive members: solve_ensemble runs solve() (adaptive.hpp: tolerances, t_eval, events,
+// dense output) per member on the same schedule, each result that single run's.
+//
 // Cost. The only allocations are the summaries and the threads, before any step; no
 // allocation per step (the Stepper's guarantee); one atomic increment per chunk.
 //
@@ -50,6 +53,7 @@
 #include <vector>
 
 #include "trompo/errors.hpp"
+#include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/model/state.hpp"
 
@@ -86,6 +90,44 @@ inline unsigned ensemble_threads(std::size_t members, unsigned requested) {
 
 namespace detail {
 
+/// Calls run(i) for every i in [0, n) on ensemble_threads(n, options.threads) threads, the
+/// members taken in chunks from a shared counter (the dynamic schedule of the file comment).
+/// What run(i) throws is rethrown on the calling thread after all have finished (the first
+/// member's in index order).
+template <class Run>
+void for_each_member(std::size_t n, const EnsembleOptions& options, Run&& run) {
+  std::vector<std::exception_ptr> errors(n);
+  const unsigned threads = ensemble_threads(n, options.threads);
+  const std::size_t chunk = options.chunk ? options.chunk : ensemble_chunk(n, threads);
+  std::atomic<std::size_t> next{0};  // the first member no thread has taken yet
+  auto work = [&] {
+    for (;;) {
+      const std::size_t begin = next.fetch_add(chunk, std::memory_order_relaxed);
+      if (begin >= n) return;
+      const std::size_t end = std::min(n, begin + chunk);
+      for (std::size_t i = begin; i < end; ++i) {
+        try {
+          run(i);
+        } catch (...) {
+          errors[i] = std::current_exception();
+        }
+      }
+    }
+  };
+  if (threads <= 1) {
+    work();
+  } else {
+    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
+    std::vector<std::jthread> pool;
+    pool.reserve(threads - 1);
+    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
+    work();  // the calling thread works too
+    for (auto& t : pool) t.join();
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (errors[i]) std::rethrow_exception(errors[i]);
+}
+
 /// Runs member i for i in [0, n) with `stepper_of(i)`; see the file comment.
 template <class StepperOf, class States, class Scalar>
 std::vector<IntegrationSummary<Scalar>> run_ensemble(std::size_t n_steppers, StepperOf stepper_of, States& states,
@@ -110,39 +152,11 @@ std::vector<IntegrationSummary<Scalar>> run_ensemble(std::size_t n_steppers, Ste
   }
 
   std::vector<IntegrationSummary<Scalar>> summaries(n);
-  std::vector<std::exception_ptr> errors(n);  // what integrate threw for a member (not expected after the checks)
-  const unsigned threads = ensemble_threads(n, options.threads);
-  const std::size_t chunk = options.chunk ? options.chunk : ensemble_chunk(n, threads);
-  std::atomic<std::size_t> next{0};  // the first member no thread has taken yet
-  auto work = [&] {
-    for (;;) {
-      const std::size_t begin = next.fetch_add(chunk, std::memory_order_relaxed);
-      if (begin >= n) return;
-      const std::size_t end = std::min(n, begin + chunk);
-      for (std::size_t i = begin; i < end; ++i) {
-        try {
-          auto local = states[i];  // stepped privately, written back once
-          summaries[i] = integrate(stepper_of(i), local, t_end, h, NoObserver{}, options.integrate);
-          states[i] = local;
-        } catch (...) {
-          errors[i] = std::current_exception();
-        }
-      }
-    }
-  };
-
-  if (threads <= 1) {
-    work();
-  } else {
-    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
-    std::vector<std::jthread> pool;
-    pool.reserve(threads - 1);
-    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
-    work();  // the calling thread works too
-    for (auto& t : pool) t.join();
-  }
-  for (std::size_t i = 0; i < n; ++i)
-    if (errors[i]) std::rethrow_exception(errors[i]);
+  for_each_member(n, options, [&](std::size_t i) {
+    auto local = states[i];  // stepped privately, written back once
+    summaries[i] = integrate(stepper_of(i), local, t_end, h, NoObserver{}, options.integrate);
+    states[i] = local;
+  });
   return summaries;
 }
 
@@ -173,6 +187,27 @@ std::vector<IntegrationSummary<typename std::ranges::range_value_t<Steppers>::Sc
   return detail::run_ensemble(
       n, [&](std::size_t i) -> const std::ranges::range_value_t<Steppers>& { return steppers[i]; }, states, t_end, h,
       options);
+}
+
+/// Adaptive members, all with one stepper: member i is exactly `solve(stepper, initials[i],
+/// t_end, options, t_eval, events, dense)` (adaptive.hpp), one AdaptiveRun per member (its
+/// states at t_eval or at every accepted step, its events, its dense solution if `dense`, its
+/// summary), bit-identical to that single run whatever the threads and the chunk. Bad options
+/// throw invalid_input before any member runs; a member whose run throws (t_eval outside its
+/// span, bad events) makes the call throw once the others have finished.
+template <class StepperT>
+std::vector<AdaptiveRun<typename StepperT::Scalar>> solve_ensemble(
+    const StepperT& stepper, const std::vector<State<typename StepperT::Scalar>>& initials,
+    typename StepperT::Scalar t_end, const AdaptiveOptions<typename StepperT::Scalar>& options,
+    const std::vector<typename StepperT::Scalar>& t_eval = {},
+    const std::vector<Event<typename StepperT::Scalar>>& events = {}, bool dense = false,
+    EnsembleOptions ensemble = {}) {
+  options.validate();
+  std::vector<AdaptiveRun<typename StepperT::Scalar>> runs(initials.size());
+  detail::for_each_member(initials.size(), ensemble, [&](std::size_t i) {
+    runs[i] = solve(stepper, initials[i], t_end, options, t_eval, events, dense);
+  });
+  return runs;
 }
 
 }  // namespace trompo

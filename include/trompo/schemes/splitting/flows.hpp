@@ -207,25 +207,54 @@ struct SplittingFrame {
   }
 };
 
-/// What the splitting remembers per trajectory (its Memory): the working frame with the
-/// constants of every sub-flow, and the first energy, found on the first step. The scheme
-/// writes it on a successful step only (writes_memory_on_success), so the Stepper steps it
-/// in place: it is read per step, never copied or rebuilt.
-template <class Scalar>
-struct SplittingMemory {
-  bool ready = false;              ///< false in fresh memory: built on the first step
-  SplittingFrame<Scalar> frame;    ///< the working frame and the sub-flows' constants
-  Scalar energy = Scalar(0);       ///< H of the trajectory's first state (projection [S12])
-};
-
 /// The working state of a splitting step: Λ_w as a quaternion (not renormalised between
 /// sub-flows: each factor is unit to round-off), Π_w and the split clock t.
 template <class Scalar>
 struct SplitState {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  Eigen::Quaternion<Scalar> q;
-  Vector3 P;
-  Scalar t;
+  Eigen::Quaternion<Scalar> q = Eigen::Quaternion<Scalar>::Identity();
+  Vector3 P = Vector3::Zero();
+  Scalar t = Scalar(0);
+};
+
+/// What the splitting remembers per trajectory (its Memory): the working frame with the
+/// constants of every sub-flow, and the first energy, found on the first step, and the
+/// working state of the last output. The scheme writes it on a successful step only
+/// (writes_memory_on_success), so the Stepper steps it in place: the frame is read per
+/// step, never copied or rebuilt.
+template <class Scalar>
+struct SplittingMemory {
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  bool ready = false;              ///< false in fresh memory: built on the first step
+  SplittingFrame<Scalar> frame;    ///< the working frame and the sub-flows' constants
+  Scalar energy = Scalar(0);       ///< H of the trajectory's first state (projection [S12])
+  /// The working state (Λ_w, Π_w) of the last step's end, and that step's output in the
+  /// user's frame, bit for bit: a step handed that output resumes from the working state
+  /// instead of converting back (Ω_w = QᵀΩ, Π_w = JΩ_w), a round trip through two rounded
+  /// matrices whose bias drifted π by ~4e-16 a step on a full inertia [S14].
+  bool carried = false;
+  SplitState<Scalar> working;      ///< Λ_w, Π_w at the last output
+  Eigen::Matrix<Scalar, 4, 1> out_q = Eigen::Matrix<Scalar, 4, 1>::Zero();  ///< its quaternion's coefficients
+  Vector3 out_omega = Vector3::Zero();  ///< its Ω
+  Scalar out_time = Scalar(0);          ///< its time
+
+  /// Whether `in` is the last output (with wheels or a time-dependent rotor, at its time too:
+  /// Π_w holds h_w(t)).
+  template <class State>
+  bool resumes(const State& in, bool timed) const {
+    return carried && in.omega == out_omega && in.rotation.unit_quaternion().coeffs() == out_q &&
+           (!timed || in.time == out_time);
+  }
+  /// Keeps the working state x of the output `out` (x.q renormalised: it is carried on).
+  template <class State>
+  void keep(SplitState<Scalar> x, const State& out) {
+    detail::newton_unit(x.q, x.q.squaredNorm());
+    working = x;
+    out_q = out.rotation.unit_quaternion().coeffs();
+    out_omega = out.omega;
+    out_time = out.time;
+    carried = true;
+  }
 };
 
 /// [S2] the exact flow of T_sym = ½|Π|²/J_a + ½ c_s Π_s² for a time t (working axis s = 3,

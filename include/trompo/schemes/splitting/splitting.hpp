@@ -298,30 +298,36 @@ struct SplittingScheme {
                   "splitting: the energy projection [S12] needs a conservative scene (potentials and rotors "
                   "only): with applied torques or damping there is no conserved H to project on");
     using Scalar = typename Scene::Scalar;
-    if (memory.ready) return step_in_frame(scene, memory.frame, in, h, out, memory.energy, false);
+    if (memory.ready) return step_in_frame(scene, memory.frame, in, h, out, memory.energy, false, &memory);
     // A fresh memory: the frame is built here and committed with a successful step only
     // (writes_memory_on_success); afterwards every step reads it in place.
     const bool no_s_or_a = is_chin(method) || is_near_integrable(method) || (!Effects::has_kick && !Effects::has_damping);
     const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::of(scene, no_s_or_a);
     Scalar H0 = Scalar(0);
-    const StepReport<Scalar> rep = step_in_frame(scene, f, in, h, out, H0, true);
+    detail::SplitState<Scalar> end;
+    const StepReport<Scalar> rep = step_in_frame(scene, f, in, h, out, H0, true, nullptr, &end);
     if (rep.ok()) {
       memory.frame = f;
       memory.energy = H0;
       memory.ready = true;
+      memory.keep(end, out);
     }
     return rep;
   }
 
  private:
   /// The step in the working frame f; H0 is the trajectory's first energy, computed here
-  /// when `fresh` (the energy projection aims at it).
+  /// when `fresh` (the energy projection aims at it). With `memory` (null on a fresh one) the
+  /// step resumes from its working state when `in` is its last output, and keeps its own on
+  /// success [S14]; `end` (if given) receives the working state at the end.
   template <class Scene>
   StepReport<typename Scene::Scalar> step_in_frame(const Scene& scene,
                                                    const detail::SplittingFrame<typename Scene::Scalar>& f,
                                                    const State<typename Scene::Scalar>& in, typename Scene::Scalar h,
                                                    State<typename Scene::Scalar>& out, typename Scene::Scalar& H0,
-                                                   bool fresh) const {
+                                                   bool fresh,
+                                                   detail::SplittingMemory<typename Scene::Scalar>* memory = nullptr,
+                                                   detail::SplitState<typename Scene::Scalar>* end = nullptr) const {
     using Effects = detail::splitting_effects_of<Scene>;
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -335,13 +341,19 @@ struct SplittingScheme {
       return rep;
     }
 
-    // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
     detail::SplitState<Scalar> x;
-    x.q = f.identity ? in.rotation.unit_quaternion() : in.rotation.unit_quaternion() * f.Q;
-    const Vector3 omega_w = f.identity ? in.omega : Vector3(f.Qt * in.omega);
-    x.P = f.J.cwiseProduct(omega_w);
-    x.t = in.time;
-    if constexpr (Scene::has_rotor || Scene::has_wheels) x.P += detail::internal_momentum(scene, f, x.t);
+    if (memory && memory->resumes(in, Scene::has_wheels)) {
+      // [S14] the last step's own working state: no round trip through the frame.
+      x = memory->working;
+      x.t = in.time;
+    } else {
+      // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
+      x.q = f.identity ? in.rotation.unit_quaternion() : in.rotation.unit_quaternion() * f.Q;
+      const Vector3 omega_w = f.identity ? in.omega : Vector3(f.Qt * in.omega);
+      x.P = f.J.cwiseProduct(omega_w);
+      x.t = in.time;
+      if constexpr (Scene::has_rotor || Scene::has_wheels) x.P += detail::internal_momentum(scene, f, x.t);
+    }
     // The projection aims at the trajectory's first energy (kept in the memory), not at
     // each step's: the one-update residuals (~ε) then do not accumulate as a random walk.
     if constexpr (EnergyProjection)
@@ -405,7 +417,10 @@ struct SplittingScheme {
     out.time = in.time + h;
     if (!detail::committable(out)) {  // writes_memory_on_success: the one check of `out`
       rep.status = StepStatus::non_finite;
+      return rep;
     }
+    if (memory) memory->keep(x, out);
+    if (end) *end = x;
     return rep;
   }
 

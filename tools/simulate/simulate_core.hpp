@@ -104,7 +104,9 @@ constexpr const char* kUsageFlags =
     "  --progress-after S           stderr a terminal: progress lines after S seconds of a fixed-step\n"
     "                               run, then once a second (default 3)\n"
     // ---- adaptive steps (docs/adaptive.md) ----
-    "  --rtol R [--atol A]          adaptive steps to tolerances R, A (default A 1e-6); --dt is the first step\n"
+    "  --rtol R [--atol A]          adaptive steps to tolerances R, A (default A 1e-6; R below 100 eps is raised\n"
+    "                               to it); --dt, optional, is the first step; without --scheme, --order and\n"
+    "                               --composition the method is picked for the scene (docs/adaptive.md)\n"
     "  --control tolerance|reversible   error estimate + PI control (default), or Hairer-Soderlind's\n"
     "                               time-reversible step density (conservative scenes, long runs)\n"
     "  --tol-scope span|time        the tolerances bound the end error of the run (default), or the\n"

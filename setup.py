@@ -1,5 +1,6 @@
 """Builds the Python module trompo for `pip install .` (pyproject.toml): the extension
-trompo._trompo from python/trompo_module.cpp and the CLI's engine tools/simulate/simulate_core.cpp (header-only C++20: Eigen 3.4, and Boost.Math
+trompo._trompo from python/trompo_module.cpp and the CLI's engine tools/simulate/simulate_core.cpp
+and command line tools/simulate/flags.cpp (CLI11) (header-only C++20: Eigen 3.4, and Boost.Math
 for the closed forms when its headers are found), and python/trompo/__init__.py with the
 interpreter it was built for filled in (as CMake's configure_file does)."""
 import os
@@ -33,13 +34,17 @@ if engine_lib:
     if not os.path.isfile(engine_lib):
         sys.exit("trompo: TROMPO_ENGINE_LIB=%s: no such file" % engine_lib)
 else:
-    sources.append(os.path.join("tools", "simulate", "simulate_core.cpp"))
+    # the command line (flags.cpp) is declared with CLI11 (Debian: libcli11-dev, header-only)
+    cli11 = first_dir(os.environ.get("CLI11_INCLUDE_DIR", ""), "/usr/include", "/usr/local/include")
+    if not os.path.isfile(os.path.join(cli11 or "", "CLI", "CLI.hpp")):
+        sys.exit("trompo: CLI11 headers (CLI/CLI.hpp) not found: apt-get install libcli11-dev, or set CLI11_INCLUDE_DIR")
+    sources += [os.path.join("tools", "simulate", f) for f in ("simulate_core.cpp", "flags.cpp")]
 
 ext = Pybind11Extension(
     "trompo._trompo",
     sources,
     extra_objects=[engine_lib] if engine_lib else [],
-    include_dirs=[os.path.join(HERE, "include"), os.path.join(HERE, "tools"), eigen],
+    include_dirs=[os.path.join(HERE, "include"), os.path.join(HERE, "tools"), eigen] + ([cli11] if not engine_lib else []),
     define_macros=macros,
     cxx_std=20,
     # TROMPO_CXXFLAGS replaces the optimisation flags (the test command's pip-install check

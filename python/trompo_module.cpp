@@ -127,7 +127,8 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
     for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
   }
   ArraySink sink;
-  const double rows = std::abs(*c.t_end / *c.dt) / static_cast<double>(c.every) + 2;  // a guess, capped
+  // a guess, capped (an adaptive run without --dt: its steps are unknown)
+  const double rows = c.dt ? std::abs(*c.t_end / *c.dt) / static_cast<double>(c.every) + 2 : 1e3;
   sink.reserve(static_cast<std::size_t>(std::min(rows, 1e5)));
   int code = 0;
   std::string error, raised;

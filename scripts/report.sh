@@ -21,7 +21,7 @@ cd "$(dirname "$0")/.."
 out=report
 build=${TROMPO_REPORT_BUILD_DIR:-build/report}
 
-scripts/deps.sh python3-matplotlib
+scripts/deps.sh python3-matplotlib libcli11-dev
 
 echo "== build trompo-bench (Release)"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DTROMPO_BUILD_TESTS=OFF -DTROMPO_BUILD_EXAMPLES=OFF -DTROMPO_BUILD_TOOLS=OFF \

@@ -19,9 +19,10 @@ cd "$(dirname "$0")/.."
 jobs=$(nproc)
 
 # doxygen/graphviz: the API reference; the Python module and its tests (python:pytest in
-# ctest): pybind11, NumPy, pytest, Dask.
+# ctest): pybind11, NumPy, pytest, Dask; CLI11: trompo-simulate's command line (tools/simulate/flags.cpp).
 scripts/deps.sh ninja-build clang libclang-rt-14-dev doxygen graphviz python3 \
-  pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-dask python3-distributed python3-matplotlib python3-dev
+  pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-dask python3-distributed python3-matplotlib python3-dev \
+  libcli11-dev
 
 echo "== build (Release at -O1, -Werror)"
 # Ninja (from ninja-build): a build dir made earlier by another generator is made anew.

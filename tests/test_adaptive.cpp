@@ -810,6 +810,11 @@ TEST_CASE("adaptive: bad input throws invalid_input naming the field", "[adaptiv
   CHECK_THROWS_WITH(solve(stepper, c.initial, 1.0, opt, {}, {e}), Catch::Contains("direction"));
   CHECK_THROWS_WITH(events::by_name(c.scene, "wobble"), Catch::Contains("wobble"));
   CHECK_THROWS_WITH(events::by_name(cases::fb1().scene, "nutation-max"), Catch::Contains("gravity"));
+  // a symmetric body has no intermediate axis: flip would find nothing, so it is refused,
+  // naming the moments (HT0: J = diag(J1, J1, J3))
+  CHECK_THROWS_WITH(events::by_name(cases::ht0().scene, "flip"),
+                    Catch::Contains("event flip: the body's principal moments") && Catch::Contains("have two equal"));
+  CHECK_NOTHROW(events::by_name(cases::fb1().scene, "flip"));
 }
 
 TEST_CASE("events: flip of FB1 and axis crossings", "[adaptive][events]") {

@@ -79,6 +79,37 @@ def test_bad_input():
         trompo.solve_ivp("ht1", (0, 1), events=[42])
 
 
+# issue 37's top: a Lagrange top J = (4, 4, 1.3), Mgl = 25, |Omega| about 9
+LAGRANGE = dict(inertia=[4, 4, 1.3], mgl=25, rotation=[0.4, 0, 0], omega=[0.3, 0.2, 9])
+
+
+def test_defaults_pick_the_method_and_the_first_step():
+    # no scheme, order or first_step: the engine's pick (docs/adaptive.md), named in .method,
+    # the end error within 10x the tolerance; the CLI's rows bit for bit
+    res = trompo.solve_ivp(None, (0, 20), rtol=1e-8, atol=1e-8, **LAGRANGE)
+    exact = trompo.simulate(scheme="exact", dt=20, t_end=20, **LAGRANGE)
+    assert res.success and res.method.startswith("splitting chin-triple-jump (order 6), picked")
+    assert np.linalg.norm(res.R[-1] - exact["R"][-1]) <= 10 * 1e-8
+    code, cli, err = run_cli(["--inertia", "4,4,1.3", "--mgl", "25", "--rotation", "0.4,0,0", "--omega", "0.3,0.2,9",
+                              "--t-end", "20", "--rtol", "1e-08", "--atol", "1e-08"])
+    assert code == 0 and "adaptive (reversible, rtol 1e-08, atol 1e-08)" in err
+    same_rows(res, cli)
+    # given a scheme and an order, the method is the one asked for
+    asked = trompo.solve_ivp(None, (0, 1), rtol=1e-6, scheme="simo-kappa", order=6, **LAGRANGE)
+    assert asked.method == "simo-kappa kahan-li-9 (order 6)"
+
+
+def test_rtol_below_the_round_off_floor_is_raised_with_a_warning():
+    with pytest.warns(UserWarning, match=r"--rtol 1e-16 is below the round-off floor 100\*eps = 2.22e-14"):
+        res = trompo.solve_ivp(None, (0, 1), rtol=1e-16, atol=1e-16, **LAGRANGE)
+    assert res.success
+
+
+def test_flip_on_a_symmetric_body_is_refused():
+    with pytest.raises(ValueError, match=r"--event flip: the body's principal moments 1.3, 4, 4 have two equal"):
+        trompo.solve_ivp(None, (0, 1), rtol=1e-6, events=["flip"], **LAGRANGE)
+
+
 def test_python_callable_events():
     # FB1 (J = 1, 2, 3): the body momentum along the intermediate axis, 2 Ω_y, changes sign at
     # each flip: a Python g(t, y) finds the built-in "flip" events.

@@ -157,8 +157,7 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
     status, rows, messages = _simulate_flags(_flags(kwargs))
     if status == 3:
         raise StepFailed(messages[-1], rows)
-    for m in messages:
-        warnings.warn(m, Recovered, stacklevel=2)
+    _warn_engine(messages, Recovered, stacklevel=2)
     return rows
 
 
@@ -166,7 +165,7 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
 class OdeResult(dict):
     """solve_ivp's result, a dict with attribute access as SciPy's: t, y, sol, t_events,
     y_events, status, message, success, and R, W, H, mu, pi, iterations (per row, as
-    simulate()'s), nsteps, nreject, nfail and niter (all Newton iterations)."""
+    simulate()'s), nsteps, nreject, nfail, niter (all Newton iterations) and method."""
 
     def __getattr__(self, name):
         try:
@@ -176,17 +175,32 @@ class OdeResult(dict):
 
 
 _SUMMARY = re.compile(r"adaptive \((\w+), rtol [^,]*, atol [^)]*\): (\d+) accepted, (\d+) rejected, (\d+) failed attempts, "
-                      r"(\d+) Newton iterations; (.*)")
+                      r"(\d+) Newton iterations; (.*?); method (.*)$")
+
+#: The engine's warnings (a message that starts so), e.g. an rtol raised to its floor.
+_WARNING = "warning: "
+
+
+def _warn_engine(messages, category, stacklevel):
+    """The engine's messages as Python warnings: its own warnings as UserWarning, the rest
+    (sub-stepping's recoveries) as `category`; a summary line (adaptive runs) is not one."""
+    for m in messages:
+        if m.startswith(_WARNING):
+            warnings.warn(m[len(_WARNING):], UserWarning, stacklevel=stacklevel + 1)
+        elif category is not None and not _SUMMARY.match(m):
+            warnings.warn(m, category, stacklevel=stacklevel + 1)
 
 
 def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, events=None, first_step=None,
-              control="tolerance", dense_output=False, **flags):
+              control=None, dense_output=False, **flags):
     """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
     bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
 
-    Returns an OdeResult (``t``, ``y``, ``t_events``, ``y_events``, ``status``, ``sol``, ...);
-    trompo's tolerances bound the error at the end of the span. docs/python.md,
-    "trompo.solve_ivp: adaptive steps".
+    Without ``scheme``, ``order`` and ``first_step`` the engine picks the first step and the
+    cheapest method for the scene and tolerance, named in ``method``; an ``rtol`` below
+    100 eps is raised to it with a UserWarning. Returns an OdeResult (``t``, ``y``,
+    ``t_events``, ``y_events``, ``status``, ``sol``, ``method``, ...); trompo's tolerances
+    bound the error at the end of the span. docs/python.md, "trompo.solve_ivp: adaptive steps".
     """
     kwargs = dict(case=case, rtol=rtol, atol=atol, control=control, dt=first_step, **flags)
     for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
@@ -233,22 +247,24 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
                 raise TypeError(f"events[{i}]: expected a built-in name or a callable g(t, y), got {e!r}")
         if items:
             kwargs["event"] = ";".join(items)
-    fd, event_path = tempfile.mkstemp(suffix=".csv")
-    os.close(fd)
-    try:
-        if names:
+    event_rows = []
+    if not names:  # no event file to read (its creation costs as much as a short run)
+        status, rows, messages = _simulate_flags(_flags(kwargs), None)
+    else:
+        fd, event_path = tempfile.mkstemp(suffix=".csv")
+        os.close(fd)
+        try:
             kwargs["event_csv"] = event_path
-        status, rows, messages = _simulate_flags(_flags(kwargs), code_events or None)
-        event_rows = []
-        if names:
+            status, rows, messages = _simulate_flags(_flags(kwargs), code_events or None)
             with open(event_path) as f:
                 next(f)
                 event_rows = [line.rstrip("\n").split(",") for line in f]
-    finally:
-        os.unlink(event_path)
+        finally:
+            os.unlink(event_path)
     m = next((_SUMMARY.match(x) for x in messages if _SUMMARY.match(x)), None)
     if m is None:
         raise RuntimeError("solve_ivp: no summary from the engine: " + "; ".join(messages))
+    _warn_engine(messages, None, stacklevel=2)
     ended = m.group(6)
     code = 1 if ended == "stopped by a terminal event" else 0 if ended == "reached t_end" else -1
     n = len(rows["t"])
@@ -280,6 +296,7 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     res["message"] = {1: "A termination event occurred.",
                       0: "The solver successfully reached the end of the integration interval."}.get(code, ended)
     res["nsteps"], res["nreject"], res["nfail"], res["niter"] = (int(m.group(k)) for k in (2, 3, 4, 5))
+    res["method"] = m.group(7)
     return res
 
 

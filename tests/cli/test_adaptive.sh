@@ -47,6 +47,24 @@ check "the run ends at the 4th minimum" '[ "$(tail -1 "$tmp/e.csv" | cut -d, -f1
 # HT0: tilt minima at t = k*T (T the nutation period, t = 0 being one), maxima at (k - 1/2)*T
 check "minima evenly spaced (one nutation period, 1e-9)" 'grep "^nutation-min," "$tmp/ev.csv" | cut -d, -f2 | awk "{t[NR]=\$1} END {T=t[1]; for (i=2;i<=NR;i++) {d=t[i]-i*T; if (d<0) d=-d; if (d>1e-9*i) exit 1}}"'
 
+# a newcomer's run: no --dt (the driver's first-step rule), no --scheme or --order (the method
+# picked for the scene and tolerance, named on the summary line; docs/adaptive.md)
+lt="--inertia 4,4,1.3 --mgl 25 --rotation 0.4,0,0 --omega 0.3,0.2,9"
+"$sim" $lt --t-end 2 --rtol 1e-8 --atol 1e-8 >"$tmp/p.csv" 2>"$tmp/p.err"; rc=$?
+check "no --dt, no --scheme: runs, one summary line" '[ $rc -eq 0 ] && [ "$(tail -1 "$tmp/p.csv" | cut -d, -f1)" = "2" ] && [ $(wc -l <"$tmp/p.err") -eq 1 ]'
+check "the picked method on the summary line: splitting, order 6, reversible" 'grep -q "^trompo-simulate: adaptive (reversible, rtol 1e-08, atol 1e-08): .*; reached t_end; method splitting chin-triple-jump (order 6), picked for the scene and tolerance" "$tmp/p.err"'
+"$sim" $lt --t-end 2 --scheme exact --dt 2 >"$tmp/px.csv" 2>/dev/null
+check "the picked method's end error within the tolerance's 10x" 'paste -d, <(tail -1 "$tmp/p.csv") <(tail -1 "$tmp/px.csv") | awk -F, "{s=0; for (i=2;i<=10;i++) s+=(\$i-\$(i+19))^2; exit !(sqrt(s) < 1e-7)}"'
+"$sim" --inertia 1,2,3 --omega 0.1,2,0.1 --t-end 2 --rtol 1e-6 >/dev/null 2>"$tmp/pf.err"; rc=$?
+check "the free body: Strang (its free flow is exact)" '[ $rc -eq 0 ] && grep -q "method splitting strang (order 2), picked" "$tmp/pf.err"'
+"$sim" $lt --t-end 2 --rtol 1e-6 --estimate defect >/dev/null 2>"$tmp/pe.err"; rc=$?
+check "a tolerance-control flag keeps the tolerance control" '[ $rc -eq 0 ] && grep -q "adaptive (tolerance, .*method splitting chin-triple-jump (order 6), picked" "$tmp/pe.err"'
+check "--order given: the method as asked, not picked" 'grep -q "method simo-kappa triple-jump (order 4)$" "$tmp/a.err"'
+"$sim" $lt --t-end 1 --rtol 1e-16 --atol 1e-16 >"$tmp/f.csv" 2>"$tmp/f16.err"; rc=$?
+check "--rtol 1e-16: raised to 100 eps with a warning, and runs" '[ $rc -eq 0 ] && grep -q "^trompo-simulate: warning: --rtol 1e-16 is below the round-off floor 100\*eps = 2.22e-14; raised to it" "$tmp/f16.err" && grep -q "adaptive (reversible, rtol 2.22045e-14, atol 1e-16)" "$tmp/f16.err"'
+"$sim" $lt --t-end 20 >/dev/null 2>"$tmp/nodt.err"; rc=$?
+check "fixed steps still need --dt, naming the adaptive way" '[ $rc -eq 2 ] && grep -q "^trompo-simulate: --dt: required (or give --case, or --rtol for adaptive steps)$" "$tmp/nodt.err"'
+
 bad() {  # bad NAME ARGS...: exit 2, one line on stderr, nothing on stdout
   local name="$1"; shift
   "$sim" "$@" >"$tmp/bad.out" 2>"$tmp/bad.err"; local rc=$?
@@ -77,6 +95,8 @@ bad "--event-csv without --event" --case ht1 --rtol 1e-6 --event-csv "$tmp/x.csv
 bad "--rtol with the processed composition" --case ht1 --rtol 1e-6 --composition blanes-casas-murua-13
 bad "--rtol with --scheme exact" --case ht1 --rtol 1e-6 --scheme exact
 check "bad: the reason names the flag" 'grep -q "rtol" "$tmp/bad.err"'
+bad "--event flip on a symmetric top" $lt --t-end 1 --rtol 1e-6 --event flip
+check "--event flip: names the body's moments" 'grep -q "^trompo-simulate: --event flip: the body.s principal moments 1.3, 4, 4 have two equal (a symmetric body): it has no intermediate axis to flip about$" "$tmp/bad.err"'
 
 echo "$fails failure(s)"
 [ "$fails" -eq 0 ]

@@ -138,6 +138,25 @@ for bad in "--case ht1 --damping -1:--damping: negative coefficient -1" \
   check "exit 2, one line naming the field: $flags ($want)" \
     '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ] && grep -qF -- "$want" "$tmp/bad.err"'
 done
+# ---- the command line itself (CLI11, tools/simulate/flags.cpp): its errors in the CLI's words ----
+for bad in "--case ht1 --spin-rate 3:unknown option '--spin-rate' (see --help)" \
+           "ht1:unexpected argument 'ht1'" \
+           "--case ht1 --dt:--dt: missing value" \
+           "--case ht1 --dt 0.1 --dt 0.2:--dt: given twice" \
+           "--case ht1 --scheme splitting --energy-projection --energy-projection:--energy-projection: given twice" \
+           "--case ht1 --allow-negative-damping=0:--allow-negative-damping: a switch, it takes no value (got '0')" \
+           "--case ht1 --dt abc:--dt: not a number: 'abc'"; do
+  flags=${bad%%:*}; want=${bad#*:}
+  "$sim" $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "command line: exit 2, one line: $flags ($want)" \
+    '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(cat "$tmp/bad.err")" = "trompo-simulate: $want" ]'
+done
+"$sim" --case ht1 --dt=0.01 --t-end 0.02 --omega -1,2,3 --every 1 >"$tmp/eq.csv"; rc=$?
+check "--flag=value and negative values: runs" '[ $rc -eq 0 ] && [ $(wc -l <"$tmp/eq.csv") -eq 4 ] && [ "$(sed -n 2p "$tmp/eq.csv" | cut -d, -f11)" = "-1" ]'
+"$sim" --help >"$tmp/help.txt"; rc=$?
+check "--help: exit 0, generated: every flag with its value and help line" \
+  '[ $rc -eq 0 ] && [ $(grep -cE "^  --[a-z-]+" "$tmp/help.txt") -ge 45 ] && grep -qE "^  --dt H +the step" "$tmp/help.txt" && grep -qE "^  --rtol R +adaptive steps" "$tmp/help.txt"'
+
 printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,1,2,3\n0,0,0,1e200,0,0\n' >"$tmp/huge.csv"
 "$sim" --case ht1 --ensemble "$tmp/huge.csv" >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
 check "ensemble: a member whose energy overflows is exit 2, named by line" \

@@ -57,6 +57,23 @@ inline long step_count(const Config& c) {
 }
 
 // ---- adaptive steps: the run (--rtol) ----
+template <class Scene>
+trompo::SplittingMethod splitting_method(const Config& c, const Scene& scene);
+
+/// The method an adaptive run steps with, as its summary line names it: "splitting
+/// chin-triple-jump (order 6)", "simo-kappa kahan-li-9 (order 6)", "rk4 (order 2)" (the
+/// CLI's order: 2 for a scheme not composed).
+template <class Scene>
+std::string method_text(const Config& c, const Scene& scene) {
+  if (c.scheme == "splitting") {
+    const trompo::SplittingMethod m = splitting_method(c, scene);
+    return "splitting " + std::string(trompo::to_string(m)) + " (order " + std::to_string(trompo::order_of(m)) + ")";
+  }
+  if (c.order == 2) return c.scheme + " (order 2)";
+  return c.scheme + " " + trompo::to_string(c.composition ? *c.composition : trompo::composition_of_order(c.order)) +
+         " (order " + std::to_string(c.order) + ")";
+}
+
 /// Runs `stepper` through trompo::integrate_adaptive (drivers/adaptive.hpp): rows at every
 /// --every-th accepted step (and the last), or at exactly the --t-eval times from the dense
 /// output; --event rows to --event-csv ("event," then the usual columns); one summary line.
@@ -79,7 +96,10 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
                    : a.estimate == "richardson" ? ErrorEstimate::richardson
                                                 : ErrorEstimate::automatic;
     opt.substeps = a.substeps;
-    opt.first_step = std::abs(*c.dt);
+    opt.first_step = c.dt ? std::abs(*c.dt) : 0.0;  // 0: the driver's rule (docs/adaptive.md)
+    if (a.rtol_asked)
+      out.message(format("warning: --rtol %g is below the round-off floor 100*eps = %.3g; raised to it (as SciPy does)",
+                         *a.rtol_asked, a.rtol));
     std::vector<Event<double>> ev;
     for (const auto& [name, terminal] : a.events) ev.push_back(events::by_name(scene, name, terminal));
     for (const Event<double>& e : a.code_events) ev.push_back(e);
@@ -130,13 +150,15 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     if (!at_times && !(s.time == last_row)) row(s, static_cast<long>(sum.iterations));  // the end, always
     if (event_file) std::fclose(event_file);
     out.message(format("adaptive (%s, rtol %g, atol %g): %lld accepted, %lld rejected, %lld failed attempts, %lld Newton "
-                       "iterations; %s",
+                       "iterations; %s; method %s%s",
                        a.control.c_str(), a.rtol, a.atol, static_cast<long long>(sum.accepted),
                        static_cast<long long>(sum.rejected), static_cast<long long>(sum.failures),
                        static_cast<long long>(sum.iterations),
                        sum.status == AdaptiveStatus::event ? "stopped by a terminal event"
                        : sum.ok()                          ? "reached t_end"
-                                                           : sum.message()));
+                                                           : sum.message(),
+                       method_text(c, scene).c_str(),
+                       a.picked ? ", picked for the scene and tolerance (docs/adaptive.md)" : ""));
     if (!sum.ok()) {
       out.flush();
       out.message(format("adaptive run failed at t = %.17g: %s", s.time, sum.message()));
@@ -615,6 +637,19 @@ void validate(const Config& c) {
   // ensemble's members are checked again on their own scenes: validate_member) ----
   if (c.scheme == "splitting")
     with_scene_of(c, body, c.mgl, false, [&](const auto& scene) { check_splitting(c, scene); });
+  // ---- adaptive: every --event built on the run's scene before any row (events::flip
+  // refuses a body without an intermediate axis, naming its moments) ----
+  if (c.adaptive.on)
+    with_scene_of(c, body, c.mgl, false, [&](const auto& scene) {
+      for (const auto& [name, terminal] : c.adaptive.events) {
+        try {
+          (void)events::by_name(scene, name, terminal);
+        } catch (const invalid_input& e) {  // the library's "event NAME: …" as the flag's
+          const std::string why = e.what();
+          throw invalid_input(why.rfind("event ", 0) == 0 ? "--" + why : "--event " + name + ": " + why);
+        }
+      }
+    });
   if (c.scheme == "exact" && !c.ensemble.empty())
     throw invalid_input("--ensemble: not with --scheme exact (the closed forms run one top at a time)");
   if (c.scheme == "exact" && c.have_effects)

@@ -1,14 +1,16 @@
 #pragma once
 // The logic of trompo-simulate, shared by the CLI (tools/simulate/trompo_simulate.cpp) and the
 // Python module (python/trompo_module.cpp): the Config and its flag parser (parse,
-// parse_flags), the checks made before anything is written (validate), the scene and
+// parse_flags: flags.cpp, on CLI11, one declaration per flag with its check and help line,
+// then the checks across flags), the checks made before anything is written (validate), the scene and
 // scheme dispatch (simulate) and the rows, which go to a RowSink: a CSV file for the CLI,
 // NumPy arrays for Python. Both faces therefore compute every row by the same code and
 // give bit-identical numbers.
 //
 // This header is the interface; the engine (the dispatch over the scheme registry,
 // include/trompo/schemes/registry.hpp, and every stepper it instantiates) is compiled once,
-// in simulate_core.cpp, into the static library trompo_simulate_core that both link.
+// in simulate_core.cpp, and the command line in flags.cpp, into the static library
+// trompo_simulate_core that both link (neither this header nor the library sees CLI11).
 //
 // Ensembles (--ensemble FILE, trompo.ensemble): the same dispatch with an EnsembleRun in
 // place of the sink; simulate() then integrates every member with trompo::integrate_ensemble
@@ -59,82 +61,6 @@ inline std::string scheme_names() {
   return names + "exact";
 }
 
-/// trompo-simulate --help after the scheme line.
-constexpr const char* kUsageFlags =
-    "  --alpha A                    simo-alpha only (default 0.5)\n"
-    "  --order 2|4|6                symmetric composition of the scheme (default 2: the scheme itself;\n"
-    "                               4: triple jump, 6: Kahan-Li)\n"
-    "  --composition triple-jump|suzuki-5|kahan-li-9|mclachlan-15|kahan-li-17   a named composition\n"
-    "                               (suzuki-5: order 4 in 5 sub-steps, far smaller error than the\n"
-    "                               triple jump; mclachlan-15, kahan-li-17: order 8)\n"
-    "  --composition blanes-casas-murua-13   processed order 6: a 13-step kernel between a pre- and a\n"
-    "                               post-processor (12 steps each), every row post-processed\n"
-    "  splitting (explicit, spin-exact; docs/splitting.md):\n"
-    "  --composition strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9|saba2c|saba3c|saba4c|sbab2c|sbab3c\n"
-    "                               with --scheme splitting (suzuki-5, kahan-li-9: compositions of Strang;\n"
-    "                               sabaNc, sbabNc: Laskar-Robutel with corrector, small torques); default by\n"
-    "                               --order: chin-4a / chin-triple-jump where they apply, else suzuki-5 / kahan-li-9\n"
-    "  --energy-projection          splitting: project H back after each step (keeps pi; no value)\n"
-    // ---- families (docs/families.md) ----
-    "  --rho-inf R                  lie-gen-alpha only: spectral radius at infinity in [0, 1] (default 0.8)\n"
-    "  --chi X                      energy-decaying only: dissipation in [0, 1] (default 0: energy-momentum)\n"
-    "  --chi-schedule constant|sensor   energy-decaying only (default constant)\n"
-    "  --inertia J11,J22,J33[,J12,J13,J23]   body axes, about the fixed point\n"
-    "  --mgl W                      M*g*l (0 = no gravity)\n"
-    "  --com E1,E2,E3               body direction to the centre of mass (normalised)\n"
-    "  --up G1,G2,G3                spatial up (normalised)\n"
-    "  --rotation R1,R2,R3          initial rotation vector, Lambda0 = exp(R^)\n"
-    "  --omega W1,W2,W3             initial body angular velocity\n"
-    "  --dt H  --t-end T  [--every K]   write every K-th step (default 1); the last step is always written\n"
-    "  --csv FILE                   default: standard output\n"
-    "  --damping C                  viscous damping torque -C*Omega (C >= 0)\n"
-    "  --allow-negative-damping     accept C < 0 (the torque then feeds energy in; no value)\n"
-    "  --torque T1,T2,T3            constant body-fixed torque\n"
-    "  --space-torque S1,S2,S3      constant space-fixed torque\n"
-    "  --rotor H1,H2,H3             internal rotor angular momentum (body axes)\n"
-    "  --gravity-gradient N         a satellite: gravity gradient of a circular orbit of rate N rad/s\n"
-    "                               (docs/spacecraft.md); the H column is then the Jacobi integral\n"
-    "  --orbit-normal O1,O2,O3      with --gravity-gradient: the orbit normal (default 0,0,1)\n"
-    "  --radial R1,R2,R3            with --gravity-gradient: the radial direction at t = 0, orthogonal\n"
-    "                               to the orbit normal (default 1,0,0)\n"
-    "  --ensemble FILE              integrate every initial state of FILE (CSV with header\n"
-    "                               rotation1,rotation2,rotation3,omega1,omega2,omega3[,mgl][,J11,J22,J33[,J12,J13,J23]])\n"
-    "                               across cores; writes each member's final state (docs/python.md)\n"
-    "  --threads N                  with --ensemble: worker threads (default 0: every core)\n"
-    "  --progress-after S           stderr a terminal: progress lines after S seconds of a fixed-step\n"
-    "                               run, then once a second (default 3)\n"
-    // ---- adaptive steps (docs/adaptive.md) ----
-    "  --rtol R [--atol A]          adaptive steps to tolerances R, A (default A 1e-6); --dt is the first step\n"
-    "  --control tolerance|reversible   error estimate + PI control (default), or Hairer-Soderlind's\n"
-    "                               time-reversible step density (conservative scenes, long runs)\n"
-    "  --tol-scope span|time        the tolerances bound the end error of the run (default), or the\n"
-    "                               error per unit time (the end error then grows like tol*t)\n"
-    "  --estimate automatic|defect|richardson|doubling   tolerance mode's error estimate (default\n"
-    "                               automatic: Richardson's for the splitting, else the interpolant's\n"
-    "                               defect up to order 6 and step doubling above)\n"
-    "  --substeps M                 Richardson's estimate: steps per attempt, 2..16 (default 8)\n"
-    "  --t-eval T1,T2,...|@FILE     rows at exactly these times (dense output), and only these\n"
-    "  --event NAME[:terminal[:N]]  nutation-max|nutation-min|axis-crossing|flip (repeatable)\n"
-    "  --event-csv FILE             one row per event: event, then the usual columns\n"
-    // ---- control in the loop (docs/control.md) ----
-    "  control in the loop (fixed steps of --dt between the samples; schemes that carry wheels:\n"
-    "  simo-kappa, simo-collocation, simo-alpha, rk4 and their compositions):\n"
-    "  --wheels FILE                reaction wheels: CSV with header gx,gy,gz,Js,speed0,max_torque,max_speed\n"
-    "                               (axis in body axes, axial inertia, initial speed relative to the body in\n"
-    "                               rad/s, limits in N m and rad/s, 'inf' for none); --inertia is then the\n"
-    "                               whole spacecraft's; adds columns wheel1..N (speeds) and u1..N (motor\n"
-    "                               torques held from the row on)\n"
-    "  --controller mrp-pd:K,P|bdot:k   sampled every --control-period T seconds (zero-order hold):\n"
-    "                               mrp-pd: L = -K sigma - P Omega to --target-rotation, on the wheels\n"
-    "                               (axes spanning 3-D) or, without --wheels, as a body torque;\n"
-    "                               bdot: m = -k dB/dt on magnetorquers (needs --orbit-radius)\n"
-    "  --control-period T           the sample period (> 0, at least |--dt|); required with --controller\n"
-    "  --target-rotation R1,R2,R3   mrp-pd's inertial target as a rotation vector, as --rotation (default 0)\n"
-    "  --orbit-radius M             magnetorquers in the Earth's field (centred dipole, IGRF-13 2020.0)\n"
-    "                               along a circular orbit of radius M metres\n"
-    "  --orbit-inclination DEG      with --orbit-radius: inclination in degrees (default 0)\n"
-    "  --max-dipole X               with --orbit-radius: dipole limit per axis, A m^2 (default none)\n";
-
 // ---- control in the loop (--wheels, --controller, --control-period, field flags) ----
 /// The control flags (docs/cli.md); `on()` when any is given.
 struct ControlFlags {
@@ -177,19 +103,16 @@ struct AdaptiveFlags {
   std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
   std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
   std::string event_csv;                             ///< --event-csv FILE
+  /// --rtol as given when it lay below kRtolFloor (rtol is then raised to it; the run warns).
+  std::optional<double> rtol_asked;
+  /// The method was picked by pick_adaptive_method (no --scheme, --order or --composition):
+  /// the summary line says so.
+  bool picked = false;
   /// Events given as code, after --event's (no flag: the Python module's callables,
   /// solve_ivp(events=[f, ...])); their rows go to --event-csv under their names.
   std::vector<trompo::Event<double>> code_events;
 };
 // ---- end adaptive ----
-
-/// trompo-simulate --help.
-inline std::string usage() {
-  return "usage: trompo-simulate [options]\n"
-         "  --case ht0|ht1|ht2|fb1|fb2|sat1|sat2   preset from docs/theory.md §7-8 and docs/spacecraft.md\n"
-         "                               (other flags override it)\n"
-         "  --scheme " + scheme_names() + "\n" + kUsageFlags;
-}
 
 struct Config {
   AdaptiveFlags adaptive;  ///< --rtol … (adaptive steps)
@@ -320,69 +243,38 @@ inline trompo::Scenes scenes_of(const std::string& name) {
   return scenes;
 }
 
-// ---- adaptive steps: the flags ----
-/// Reads one adaptive flag into `a`; false if `flag` is not one of them.
-inline bool parse_adaptive_flag(const std::string& flag, const std::string& value, AdaptiveFlags& a) {
-  if (flag == "--rtol") {
-    a.on = true;
-    a.rtol = parse_number(flag, value);
-  } else if (flag == "--atol") {
-    a.atol = parse_number(flag, value);
-  } else if (flag == "--control") {
-    a.control = value;
-  } else if (flag == "--tol-scope") {
-    a.tol_scope = value;
-  } else if (flag == "--estimate") {
-    a.estimate = value;
-  } else if (flag == "--substeps") {
-    const double m = parse_number(flag, value);
-    constexpr int most = trompo::AdaptiveOptions<double>::max_substeps;
-    if (!(m >= 2 && m <= most && m == std::floor(m)))
-      throw invalid_input("--substeps: must be an integer in [2, " + std::to_string(most) + "], got " + value);
-    a.substeps = static_cast<int>(m);
-  } else if (flag == "--t-eval") {
-    if (!value.empty() && value[0] == '@') {  // @FILE: one time a line (blank lines skipped)
-      std::ifstream in(value.substr(1));
-      if (!in) throw invalid_input("--t-eval: cannot open '" + value.substr(1) + "'");
-      std::string line;
-      while (std::getline(in, line)) {
-        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-        a.t_eval.push_back(parse_number(flag, line));
-      }
-      if (a.t_eval.empty()) throw invalid_input("--t-eval: no time in '" + value.substr(1) + "'");
-    } else {
-      a.t_eval = parse_list(flag, value);
-    }
-  } else if (flag == "--event") {
-    std::stringstream list(value);
-    std::string item;
-    while (std::getline(list, item, ';')) {
-      // NAME, NAME:terminal (the first occurrence ends the run) or NAME:terminal:N (the N-th)
-      const auto colon = item.find(':');
-      const std::string name = item.substr(0, colon);
-      int terminal = 0;
-      if (colon != std::string::npos) {
-        const std::string rest = item.substr(colon + 1);
-        if (rest == "terminal") terminal = 1;
-        else if (rest.rfind("terminal:", 0) == 0) {
-          const double n = parse_number(flag, rest.substr(9));
-          if (!(n >= 1 && n <= 1e9) || n != std::floor(n))
-            throw invalid_input("--event " + item + ": the count must be a positive integer");
-          terminal = static_cast<int>(n);
-        } else {
-          throw invalid_input("--event " + item + ": expected NAME, NAME:terminal or NAME:terminal:N");
-        }
-      }
-      a.events.emplace_back(name, terminal);
-    }
-  } else if (flag == "--event-csv") {
-    a.event_csv = value;
-  } else {
-    return false;
+// ---- adaptive steps: the checks (each flag's own: flags.cpp) ----
+inline void check_adaptive(Config& c, const std::map<std::string, std::string>& flags);
+
+/// SciPy's floor on rtol, 100 ε: below it the steps' round-off is as large as the error asked
+/// for. A smaller --rtol is raised to it with a warning (as SciPy's solve_ivp does), so that
+/// a run asked for "as exact as possible" still runs, and says what it delivers.
+constexpr double kRtolFloor = 100 * std::numeric_limits<double>::epsilon();
+
+/// The method of an adaptive run given no --scheme, --order or --composition: the cheapest
+/// at equal end error in the measurements of docs/adaptive.md ("The method an adaptive run
+/// picks"), where the rule's table is. The splitting (explicit and spin-exact: no Newton
+/// iteration, an error set by the load, not the spin) with the reversible control: 6-50x
+/// cheaper than Simo-kappa at order 6 on every scene and tolerance measured (tops, the free
+/// body, damping, torques, a rotor, a satellite), its end error 0.002-2.5x the tolerance,
+/// where the tolerance control's local errors add up to 20-50x on the Lagrange tops. Order 6
+/// (Chin's triple jump where the free flow is exact, else Kahan-Li-9: Splitting::default_for),
+/// but order 2 on the free body without effects, whose flow the splitting takes exactly (any
+/// order is round-off there, and Strang's step is the cheapest). The reversible control's
+/// ε comes from a pilot of 20 tolerance-control attempts: with Richardson's m = 2 (3 steps
+/// per attempt, not 9) it costs 20-25 % less of a whole run at 1e-8, the end error still
+/// 0.3-1x the tolerance. `control_given`: a --control, --tol-scope, --estimate or --substeps
+/// was given (the tolerance control's own flags): the control stays as asked.
+inline void pick_adaptive_method(Config& c, bool control_given) {
+  const bool free_body = !c.have_effects && c.mgl == 0 && !c.gravity_gradient;
+  c.scheme = "splitting";
+  c.order = free_body ? 2 : 6;
+  if (!control_given) {
+    c.adaptive.control = "reversible";
+    c.adaptive.substeps = 2;
   }
-  return true;
+  c.adaptive.picked = true;
 }
-inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags);
 // ---- end adaptive ----
 
 // ---- control in the loop: the flags ----
@@ -437,50 +329,6 @@ inline std::vector<trompo::Wheel<double>> read_wheels(const std::string& path) {
   if (!header) throw invalid_input("--wheels: " + path + ": no header line");
   if (wheels.empty()) throw invalid_input("--wheels: " + path + ": no wheels (only a header)");
   return wheels;
-}
-
-/// Reads one control flag into `k`; false if `flag` is not one of them.
-inline bool parse_control_flag(const std::string& flag, const std::string& value, ControlFlags& k) {
-  if (flag == "--wheels") {
-    k.wheels_file = value;
-    k.wheels = read_wheels(value);
-  } else if (flag == "--control-period") {
-    k.period = parse_number(flag, value);
-  } else if (flag == "--controller") {
-    const auto colon = value.find(':');
-    const std::string name = value.substr(0, colon);
-    const std::string args = colon == std::string::npos ? std::string() : value.substr(colon + 1);
-    if (name == "mrp-pd") {
-      const auto g = colon == std::string::npos ? std::vector<double>{} : parse_list(flag + " mrp-pd", args);
-      if (g.size() != 2) throw invalid_input("--controller mrp-pd: expected mrp-pd:K,P, got '" + value + "'");
-      if (!(g[0] >= 0 && g[1] >= 0)) throw invalid_input("--controller mrp-pd: K and P must be >= 0, got '" + value + "'");
-      k.K = g[0];
-      k.P = g[1];
-    } else if (name == "bdot") {
-      if (colon == std::string::npos) throw invalid_input("--controller bdot: expected bdot:k, got '" + value + "'");
-      k.k = parse_number(flag + " bdot: k", args);
-      if (!(k.k >= 0)) throw invalid_input("--controller bdot: k must be >= 0, got '" + value + "'");
-    } else if (name == "code" && colon == std::string::npos) {
-      // A controller given as code (ControlFlags::code): the Python module's; without it
-      // make_controller refuses the run.
-    } else {
-      throw invalid_input("--controller: unknown controller '" + name + "' (mrp-pd:K,P or bdot:k)");
-    }
-    k.controller = name;
-  } else if (flag == "--target-rotation") {
-    k.target = parse_vector(flag, value);
-  } else if (flag == "--orbit-radius") {
-    k.orbit_radius = parse_number(flag, value);
-    if (!(*k.orbit_radius > 0)) throw invalid_input("--orbit-radius: must be > 0 (m), got " + value);
-  } else if (flag == "--orbit-inclination") {
-    k.inclination_deg = parse_number(flag, value);
-  } else if (flag == "--max-dipole") {
-    k.max_dipole = parse_number(flag, value);
-    if (!(*k.max_dipole > 0)) throw invalid_input("--max-dipole: must be > 0 (A m^2), got " + value);
-  } else {
-    return false;
-  }
-  return true;
 }
 
 /// Whether --scheme `name` steps the control scene (a scheme that carries wheels).
@@ -543,211 +391,10 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
 }
 // ---- end control ----
 
-/// The flags (name with its "--" → value) as a Config, with the CLI's checks and messages.
-/// trompo-simulate's parse() and the Python module (python/trompo_module.cpp) both come here.
-inline Config parse_flags(const std::map<std::string, std::string>& flags) {
-  Config c;
-  // The preset first; every other flag overrides it.
-  if (auto it = flags.find("--case"); it != flags.end()) apply_case(it->second, c);
-  for (const auto& [flag, value] : flags) {
-    if (flag == "--case") continue;
-    else if (flag == "--scheme") c.scheme = value;
-    else if (flag == "--alpha") c.alpha = parse_number(flag, value);
-    else if (flag == "--inertia") {
-      const auto v = parse_list(flag, value);
-      if (v.size() != 3 && v.size() != 6)
-        throw invalid_input("--inertia: expected J11,J22,J33 or J11,J22,J33,J12,J13,J23, got '" + value + "'");
-      c.inertia = M3::Zero();
-      c.inertia.diagonal() << v[0], v[1], v[2];
-      if (v.size() == 6) {
-        c.inertia(0, 1) = c.inertia(1, 0) = v[3];
-        c.inertia(0, 2) = c.inertia(2, 0) = v[4];
-        c.inertia(1, 2) = c.inertia(2, 1) = v[5];
-      }
-      c.have_inertia = true;
-      c.unphysical_ok = false;
-    } else if (flag == "--mgl") c.mgl = parse_number(flag, value);
-    else if (flag == "--com") c.com = parse_vector(flag, value);
-    else if (flag == "--up") c.up = parse_vector(flag, value);
-    else if (flag == "--rotation") c.rotation = parse_vector(flag, value);
-    else if (flag == "--omega") c.omega = parse_vector(flag, value);
-    else if (flag == "--dt") c.dt = parse_number(flag, value);
-    else if (flag == "--t-end") c.t_end = parse_number(flag, value);
-    else if (flag == "--every") {
-      const double k = parse_number(flag, value);
-      if (!(k >= 1) || k != std::floor(k) || k > 1e15) throw invalid_input("--every: must be a positive integer, got " + value);
-      c.every = static_cast<long>(k);
-    } else if (flag == "--progress-after") {
-      const double a = parse_number(flag, value);
-      if (!(a >= 0) || !std::isfinite(a)) throw invalid_input("--progress-after: must be a finite number of seconds >= 0, got " + value);
-      c.progress_after = a;
-    } else if (flag == "--csv") c.csv = value;
-    else if (flag == "--order") {
-      const double k = parse_number(flag, value);
-      if (k != 2 && k != 4 && k != 6) throw invalid_input("--order: must be 2, 4 or 6, got " + value);
-      c.order = static_cast<int>(k);
-      c.order_flag = c.order;
-    } else if (flag == "--energy-projection") {
-      if (!value.empty()) throw invalid_input("--energy-projection: a switch, it takes no value (got '" + value + "')");
-      c.energy_projection = true;
-    } else if (flag == "--composition") {
-      c.composition_name = value;
-      bool known = false;  // the splitting's own methods (strang, chin-4a, …, saba4c, sbab3c)
-      for (const auto m : trompo::all_splitting_methods)
-        if (value == trompo::to_string(m) && value != "suzuki-5" && value != "kahan-li-9") known = true;
-      for (const auto m : {trompo::Composition::triple_jump, trompo::Composition::suzuki5, trompo::Composition::kahan_li9,
-                           trompo::Composition::mclachlan15, trompo::Composition::kahan_li17})
-        if (value == trompo::to_string(m)) {
-          c.composition = m;
-          known = true;
-        }
-      if (value == "blanes-casas-murua-13") c.processed = known = true;
-      if (!known)
-        throw invalid_input("--composition: must be triple-jump, suzuki-5, kahan-li-9, mclachlan-15, kahan-li-17 or blanes-casas-murua-13 (with --scheme splitting: strang, "
-                            "chin-4a, chin-triple-jump, suzuki-5, kahan-li-9, saba2c, saba3c, saba4c, sbab2c or sbab3c), got " + value);
-    } else if (flag == "--allow-negative-damping") {
-      if (!value.empty()) throw invalid_input("--allow-negative-damping: a switch, it takes no value (got '" + value + "')");
-      c.allow_negative_damping = true;
-    } else if (flag == "--damping") {
-      c.damping = parse_number(flag, value);
-      c.have_effects = true;
-    } else if (flag == "--torque") {
-      c.body_torque = parse_vector(flag, value);
-      c.have_effects = true;
-    } else if (flag == "--space-torque") {
-      c.space_torque = parse_vector(flag, value);
-      c.have_effects = true;
-    } else if (flag == "--rotor") {
-      c.rotor = parse_vector(flag, value);
-      c.have_effects = true;
-    }
-    // ---- satellite ----
-    else if (flag == "--gravity-gradient") c.gravity_gradient = parse_number(flag, value);
-    else if (flag == "--orbit-normal") c.orbit_normal = parse_vector(flag, value);
-    else if (flag == "--radial") c.radial = parse_vector(flag, value);
-    // ---- families (docs/families.md) ----
-    else if (flag == "--rho-inf") c.rho_inf = parse_number(flag, value);
-    else if (flag == "--chi") c.chi = parse_number(flag, value);
-    else if (flag == "--chi-schedule") c.chi_schedule = value;
-    else if (flag == "--ensemble") c.ensemble = value;
-    else if (flag == "--threads") {
-      const double k = parse_number(flag, value);
-      if (!(k >= 0) || k != std::floor(k) || k > 4096) throw invalid_input("--threads: must be an integer in [0, 4096], got " + value);
-      c.threads = static_cast<unsigned>(k);
-    }
-    else if (parse_adaptive_flag(flag, value, c.adaptive)) continue;  // adaptive steps
-    else if (parse_control_flag(flag, value, c.control)) continue;     // control in the loop
-    else throw invalid_input("unknown option '" + flag + "' (see --help)");
-  }
-  // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
-  // checks name the scheme they need, which misleads when the name itself is a typo.
-  if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
-  if (!c.have_inertia) throw invalid_input("--inertia: required (or give --case)");
-  if (!c.dt) throw invalid_input("--dt: required (or give --case)");
-  if (!c.t_end) throw invalid_input("--t-end: required (or give --case)");
-  if (*c.dt == 0) throw invalid_input("--dt: must be non-zero, got 0");
-  if (*c.t_end != 0 && (*c.t_end > 0) != (*c.dt > 0))
-    throw invalid_input("--t-end: " + std::to_string(*c.t_end) + " lies behind the start for --dt " +
-                        std::to_string(*c.dt));
-  // A negative coefficient makes -C*Omega drive the spin: energy grows without bound. Run
-  // only when asked for by name (a sign typo otherwise passes as a plausible run).
-  if (c.damping < 0 && !c.allow_negative_damping)
-    throw invalid_input("--damping: negative coefficient " + flags.at("--damping") +
-                        " feeds energy in; give --allow-negative-damping to run it anyway");
-  if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
-  // ---- satellite: its own scene (gravity gradient only) ----
-  if (!c.gravity_gradient && (flags.count("--orbit-normal") || flags.count("--radial")))
-    throw invalid_input(std::string(flags.count("--orbit-normal") ? "--orbit-normal" : "--radial") +
-                        ": only with --gravity-gradient (or --case sat1|sat2)");
-  if (c.gravity_gradient) {
-    if (c.mgl != 0 || c.have_effects)
-      throw invalid_input("--gravity-gradient: a satellite scene has the gravity gradient only (no --mgl, --damping, "
-                          "--torque, --space-torque or --rotor)");
-    if (c.scheme == "exact") throw invalid_input("--scheme exact: no closed form for a satellite (--gravity-gradient)");
-    if (c.scheme == "energy-decaying")
-      throw invalid_input("--scheme energy-decaying: its torque average [T12] needs a potential linear in the attitude "
-                          "(uniform gravity), not --gravity-gradient");
-    if (!c.ensemble.empty()) throw invalid_input("--ensemble: not with --gravity-gradient (one satellite at a time)");
-  }
-  if (c.ensemble.empty() && flags.count("--threads")) throw invalid_input("--threads: only with --ensemble");
-  // ---- families (docs/families.md): parameters and what the schemes accept ----
-  if (c.rho_inf && c.scheme != "lie-gen-alpha") throw invalid_input("--rho-inf: only with --scheme lie-gen-alpha");
-  if (c.rho_inf && !(*c.rho_inf >= 0 && *c.rho_inf <= 1))
-    throw invalid_input("--rho-inf: must be in [0, 1], got " + std::to_string(*c.rho_inf));
-  if ((c.chi || c.chi_schedule) && c.scheme != "energy-decaying")
-    throw invalid_input(std::string(c.chi ? "--chi" : "--chi-schedule") + ": only with --scheme energy-decaying");
-  if (c.chi && !(*c.chi >= 0 && *c.chi <= 1)) throw invalid_input("--chi: must be in [0, 1], got " + std::to_string(*c.chi));
-  if (c.chi_schedule && *c.chi_schedule != "constant" && *c.chi_schedule != "sensor")
-    throw invalid_input("--chi-schedule: must be constant or sensor, got '" + *c.chi_schedule + "'");
-  if (scenes_of(c.scheme) == trompo::Scenes::free_body && (c.have_effects || c.mgl != 0))
-    throw invalid_input("--scheme " + c.scheme + ": the free body only (--mgl 0, no --damping, --torque, --space-torque or --rotor)");
-  if (scenes_of(c.scheme) != trompo::Scenes::all && c.have_effects)
-    throw invalid_input("--scheme " + c.scheme +
-                        ": the free body or the heavy top only (no --damping, --torque, --space-torque or --rotor)");
-  // ---- splitting: its compositions are its own methods ----
-  if (c.scheme == "splitting") {
-    if (c.composition_name) {
-      for (const char* implicit_only : {"triple-jump", "mclachlan-15", "kahan-li-17", "blanes-casas-murua-13"})
-        if (*c.composition_name == implicit_only)
-          throw invalid_input("--composition " + *c.composition_name +
-                              ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9, saba2c, "
-                              "saba3c, saba4c, sbab2c, sbab3c)");
-      int k = 6;
-      for (const auto m : trompo::all_splitting_methods)
-        if (*c.composition_name == trompo::to_string(m)) k = trompo::order_of(m);
-      if (c.order_flag && *c.order_flag != k)
-        throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
-                            *c.composition_name + " (order " + std::to_string(k) + ")");
-      c.order = k;
-    }
-    if (!c.ensemble.empty())
-      for (const char* f : {"--rotation", "--omega", "--every"})
-        if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
-    check_control(c, flags);   // control in the loop: refuses the splitting (no wheels)
-    check_adaptive(c, flags);  // adaptive steps (before this return, the splitting skipped them)
-    return c;
-  }
-  if (c.energy_projection) throw invalid_input("--energy-projection: only with --scheme splitting");
-  if (c.composition_name && !c.composition && !c.processed)
-    throw invalid_input("--composition " + *c.composition_name + ": only with --scheme splitting");
-  // ---- end splitting ----
-  if (c.composition) {
-    c.order = trompo::CompositionCoefficients<double>::of(*c.composition).order;
-    if (c.order_flag && *c.order_flag != c.order)
-      throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
-                          trompo::to_string(*c.composition) + " (order " + std::to_string(c.order) + ")");
-  }
-  if (c.processed) {
-    if (c.order_flag && *c.order_flag != 6)
-      throw invalid_input("--order: " + std::to_string(*c.order_flag) +
-                          " contradicts --composition blanes-casas-murua-13 (order 6)");
-    c.order = 6;
-  }
-  // The flag that asked for a composition, as the messages below name it.
-  const std::string composed_by = c.composition ? "--composition " + std::string(trompo::to_string(*c.composition))
-                                  : c.processed ? std::string("--composition blanes-casas-murua-13")
-                                                : std::string("--order");
-  // ---- schemes the registry does not let the CLI compose (the families, rk4) ----
-  if (c.order != 2 && compositions_of(c.scheme) == trompo::Compositions::none) {
-    if (c.scheme == "exact")
-      throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric implicit scheme, not exact");
-    throw invalid_input(composed_by + ": order " + std::to_string(c.order) + " needs a symmetric scheme; " + c.scheme +
-                        " is not composed by the CLI");
-  }
-  if (c.order != 2 && c.scheme == "simo-alpha" && c.alpha && *c.alpha != 0.5)
-    throw invalid_input(composed_by + ": simo-alpha is symmetric only for alpha = 0.5");
-  if (c.alpha && !(*c.alpha >= 0 && *c.alpha <= 1)) throw invalid_input("--alpha: must be in [0, 1], got " + std::to_string(*c.alpha));
-  check_control(c, flags);  // control in the loop
-  if (!c.ensemble.empty())
-    for (const char* f : {"--rotation", "--omega", "--every"})
-      if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
-  check_adaptive(c, flags);  // adaptive steps
-  return c;
-}
 
 /// The checks of the adaptive flags (exit 2 with the reason), after parse_flags' own.
-inline void check_adaptive(const Config& c, const std::map<std::string, std::string>& flags) {
-  const AdaptiveFlags& a = c.adaptive;
+inline void check_adaptive(Config& c, const std::map<std::string, std::string>& flags) {
+  AdaptiveFlags& a = c.adaptive;
   if (!a.on) {
     for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--substeps", "--t-eval", "--event", "--event-csv"})
       if (flags.count(f)) throw invalid_input(std::string(f) + ": only with adaptive steps (give --rtol)");
@@ -755,6 +402,10 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
   }
   if (!(std::isfinite(a.rtol) && a.rtol > 0)) throw invalid_input("--rtol: must be finite and > 0, got " + flags.at("--rtol"));
   if (!(std::isfinite(a.atol) && a.atol >= 0)) throw invalid_input("--atol: must be finite and >= 0, got " + flags.at("--atol"));
+  if (a.rtol < kRtolFloor) {  // run_adaptive warns
+    a.rtol_asked = a.rtol;
+    a.rtol = kRtolFloor;
+  }
   if (a.control != "tolerance" && a.control != "reversible")
     throw invalid_input("--control: must be tolerance or reversible, got '" + a.control + "'");
   if (a.tol_scope != "span" && a.tol_scope != "time")
@@ -789,31 +440,19 @@ inline void check_adaptive(const Config& c, const std::map<std::string, std::str
   }
 }
 
-/// The command line as flags, then parse_flags.
-inline Config parse(int argc, char** argv) {
-  std::map<std::string, std::string> flags;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(usage().c_str(), stdout);
-      std::exit(0);
-    }
-    if (a.rfind("--", 0) != 0) throw invalid_input("unexpected argument '" + a + "'");
-    if (a == "--energy-projection" || a == "--allow-negative-damping") {  // the switches: no value
-      if (flags.count(a)) throw invalid_input(a + ": given twice");
-      flags[a] = "";
-      continue;
-    }
-    if (i + 1 >= argc) throw invalid_input(a + ": missing value");
-    if (a == "--event" && flags.count(a)) {  // adaptive: repeatable, kept as a ';' list
-      flags[a] += std::string(";") + argv[++i];
-      continue;
-    }
-    if (flags.count(a)) throw invalid_input(a + ": given twice");
-    flags[a] = argv[++i];
-  }
-  return parse_flags(flags);
-}
+
+// ---- the command line (flags.cpp, on CLI11: one declaration per flag) ----------------------
+
+/// trompo-simulate --help, generated from the flags' declarations.
+std::string usage();
+
+/// The flags (name with its "--" → value; a switch's value empty) as a Config, with the
+/// CLI's checks and messages: the Python module's way in (python/trompo_module.cpp).
+Config parse_flags(const std::map<std::string, std::string>& flags);
+
+/// The command line as a Config, with the same checks and messages; --help or -h prints
+/// usage() and exits 0.
+Config parse(int argc, char** argv);
 
 const char* const kHeader = "t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations\n";
 

@@ -278,12 +278,18 @@ Event<Scalar> axis_crossing(const Eigen::Matrix<Scalar, 3, 1>& body_axis, const 
   return e;
 }
 /// g = u·JΩ, u the intermediate principal axis of J: a sign change is a flip of the body
-/// about that axis ("flip", the Dzhanibekov effect).
+/// about that axis ("flip", the Dzhanibekov effect). Throws invalid_input, naming the
+/// principal moments, for a body with two of them equal (to 1e-12 of the largest): a
+/// symmetric body has no intermediate axis, and the event would silently find nothing.
 template <class Scene>
 Event<typename Scene::Scalar> flip(const Scene& scene, int terminal = 0) {
   using Scalar = typename Scene::Scalar;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
   Eigen::SelfAdjointEigenSolver<Matrix3> eig(scene.body().inertia());
+  const auto& m = eig.eigenvalues();  // ascending
+  if (!(m(1) - m(0) > Scalar(1e-12) * m(2) && m(2) - m(1) > Scalar(1e-12) * m(2)))
+    detail::fail("event flip: the body's principal moments ", m(0), ", ", m(1), ", ", m(2),
+                 " have two equal (a symmetric body): it has no intermediate axis to flip about");
   const Eigen::Matrix<Scalar, 3, 1> u = eig.eigenvectors().col(1);  // ascending: the middle one
   const Matrix3 J = scene.body().inertia();
   Event<Scalar> e;

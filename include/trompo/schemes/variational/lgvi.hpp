@@ -1,0 +1,165 @@
+#pragma once
+// The Lie group variational integrator (LGVI) of Lee, Leok & McClamroch (2005, 2007),
+// docs/theory.md §16 [V1]–[V6]: the discrete Hamilton principle on SO(3) with the
+// discrete Lagrangian
+//   L_d(Λ_n, Λ_{n+1}) = (1/h) tr[(I − F_n) J_d] − (h/2)(V(Λ_n) + V(Λ_{n+1})),
+//   F_n = Λ_nᵀ Λ_{n+1},  J_d = ½ tr(J) I − J                                          [V1]
+// whose discrete Euler–Lagrange equations, with the applied torques entered by the
+// discrete Lagrange–d'Alembert principle at the mid configuration, read
+//   vee(F J_d − J_d Fᵀ) = a(θ) JΘ + b(θ) Θ × JΘ
+//                       = h Π_n + (h²/2)(τ_c(Λ_n) + τ_a,m)                          [V2]
+//   Λ_{n+1} = Λ_n F,   F = exp(Θ̂)                                                  [V3]
+//   Π_{n+1} = Fᵀ (Π_n + (h/2) τ_c(Λ_n) + h τ_a,m + (h/2) τ_c(Λ_{n+1}))             [V4]
+// (torques in the body frame of step n; a = sin θ/θ, b = (1 − cos θ)/θ²), Π = JΩ.
+// [V2] is solved by Newton in Θ with the tangent [V5]
+//   K = (tr(F J_d) I − F J_d) F T(Θ)  − (h²/2) ∂τ_a,m/∂Θ,
+// which tends to J as h → 0: the conservative torques enter [V2] at Λ_n only, so no
+// potential Jacobian is needed, and [V4] is explicit. The branch rule (NewtonOptions)
+// takes the root with det K > 0, which ends at the fold det K = 0 ([V6]: for a spin
+// about a principal axis sin θ = h|Ω|, no root beyond h|Ω| = 1, the continued one below
+// θ = π/2).
+//
+// Symplectic and symmetric (L_d(Λ_n, Λ_{n+1}; h) = −L_d(Λ_{n+1}, Λ_n; −h)); order 2;
+// π exact on the free body and μ = γ·π under potentials symmetric about γ (discrete
+// Noether: L_d is invariant under Λ ↦ R Λ for R about γ); H not exact but bounded (a
+// modified energy is kept to O(h^N) over exponentially long times).
+//
+// Scenes: the free body, potentials (uniform gravity, general V, the gravity gradient with
+// t frozen at the mid time as the other implicit schemes do) and applied torques. Not
+// rotors nor wheels (their gyroscopic term Ω·h_r needs its own discrete Lagrangian; the
+// step is not declared for them, so SchemeFor refuses such a scene).
+#include <Eigen/Core>
+#include <cmath>
+
+#include "trompo/lie/so3.hpp"
+#include "trompo/model/state.hpp"
+#include "trompo/schemes/implicit_step.hpp"
+#include "trompo/schemes/scheme.hpp"
+#include "trompo/schemes/step_data.hpp"
+#include "trompo/solvers/damped_newton.hpp"
+#include "trompo/solvers/newton.hpp"
+
+namespace trompo {
+
+namespace detail {
+
+/// The LGVI's implicit equation [V2] and its tangent [V5] as a function of the increment Θ
+/// (body frame of step n), for detail::newton.
+template <class Scene>
+class LgviResidual {
+ public:
+  /// The floating-point type.
+  using Scalar = typename Scene::Scalar;
+  /// A 3-vector of Scalar.
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+
+  /// At the step's data d; `tau_n` the conservative torque at Λ_n (frame n, zero without).
+  LgviResidual(const StepData<Scene>& d, const Vector3& tau_n)
+      : d_(d), rhs_(d.h * (d.Pi_n + (d.h / Scalar(2)) * tau_n)), rhs_norm_(rhs_.norm()) {}
+
+  /// R(Θ) = a JΘ + b Θ × JΘ − h Π_n − (h²/2)(τ_c,n + τ_a,m) [V2]; with K, the tangent [V5].
+  bool operator()(const Vector3& Theta, Vector3& R, Matrix3* K, Scalar& scale) const {
+    using G = SO3<Scalar>;
+    const Scene& scene = d_.scene;
+    const Scalar h = d_.h;
+    const Matrix3& J = scene.body().inertia();
+    const HalfAngle<Scalar> ha = half_angle_from_squared(Theta.squaredNorm());
+    const Scalar a = ha.sinc();                   // sin θ/θ
+    const Scalar b = ha.one_minus_cos_over_sq();  // (1 − cos θ)/θ²
+    const Vector3 JTheta = J * Theta;
+    // vee(F J_d − J_d Fᵀ) = a JΘ + b Θ × JΘ  [V2]
+    R = a * JTheta + b * Theta.cross(JTheta) - rhs_;
+    scale = rhs_norm_ + JTheta.norm();
+    if (K) {
+      const Matrix3 F = G::rodrigues(Theta, a, b);
+      const Matrix3 J_d = Scalar(0.5) * J.trace() * Matrix3::Identity() - J;
+      // ∂/∂Θ of vee(F J_d − J_d Fᵀ) along F exp((T(Θ)δ)^): (tr(F J_d) I − F J_d) F T(Θ)  [V5]
+      const Matrix3 FJ_d = F * J_d;
+      *K = (FJ_d.trace() * Matrix3::Identity() - FJ_d) * F * G::right_tangent(Theta);
+    }
+    if constexpr (Scene::has_applied_torque) {
+      // τ_a at Λ_{n+½} = Λ_n exp(Θ̂/2), Ω_m = Θ/h (docs/theory.md §5), half of its impulse
+      // at each end [V2]/[V4]; ∂/∂Θ through w = ½T(Θ/2)δΘ and Ω_m.
+      const Vector3 half = Theta / Scalar(2);
+      Matrix3 d_rot, d_omega;
+      const Vector3 tau = applied_at_mid(Theta, ha, K ? &d_rot : nullptr, K ? &d_omega : nullptr);
+      R -= (h * h / Scalar(2)) * tau;
+      if (K) *K -= (h * h / Scalar(2)) * (Scalar(0.5) * d_rot * G::right_tangent(half) + d_omega / h);
+      scale += Scalar(0.5) * h * h * tau.norm();
+    }
+    return true;
+  }
+
+  /// τ_a,m: the applied torques at the mid configuration Λ_n exp(Θ̂/2) and Ω_m = Θ/h
+  /// (frame n), with their Jacobians if asked.
+  Vector3 applied_at_mid(const Vector3& Theta, const HalfAngle<Scalar>& ha, Matrix3* d_rot = nullptr,
+                         Matrix3* d_omega = nullptr) const {
+    const Matrix3 R_half = SO3<Scalar>::rodrigues(Theta / Scalar(2), ha.kappa, ha.half_one_minus_cos_over_sq());
+    return d_.scene.applied_torque(d_.caches, R_half, Theta / d_.h, d_rot, d_omega);
+  }
+
+ private:
+  const StepData<Scene>& d_;
+  Vector3 rhs_;  ///< h Π_n + (h²/2) τ_c(Λ_n)
+  Scalar rhs_norm_;
+};
+
+}  // namespace detail
+
+/// The Lie group variational integrator of Lee, Leok & McClamroch [V1]–[V6]: symplectic,
+/// symmetric, order 2; π exact on the free body, μ under symmetric potentials; H bounded.
+struct LGVI {
+  /// "lgvi".
+  static constexpr const char* name = "lgvi";
+  /// Order 2; symmetric (composable to orders 4 and 6); keeps μ (wherever the scene's flow
+  /// does) and π on the free body, not H (bounded); memoryless; no wheels.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps = [](SceneKind s) { return Keeps{.momentum_map = true, .spatial_momentum = s.is_free}; }};
+
+  /// One step: Newton on [V2] from Θ⁰ = hΩ_n + (h²/2)Ω̇_n, the branch rule, then [V3]–[V4].
+  /// Not declared for scenes with rotors or wheels (see the file comment).
+  template <class Scene>
+    requires(!Scene::has_rotor && !Scene::has_wheels)
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h,
+                                          const NewtonOptions<typename Scene::Scalar>& options,
+                                          State<typename Scene::Scalar>& out, NoMemory&) const {
+    using Scalar = typename Scene::Scalar;
+    using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+    using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+    const detail::StepData<Scene> d(scene, in, h);
+    Vector3 tau_n = Vector3::Zero();  // τ_c(Λ_n), frame n
+    if constexpr (Scene::has_potential) tau_n = scene.conservative_torque(d.caches, Matrix3::Identity());
+    const detail::LgviResidual<Scene> residual(d, tau_n);
+    const Vector3 predicted = d.predicted_increment();  // Θ⁰ = hΩ_n + (h²/2)Ω̇_n: [V2] to O(h³)
+    Vector3 Theta = predicted;
+    Matrix3 K;
+    StepReport<Scalar> rep = detail::newton(
+        residual, Theta, options,
+        NewtonSolve<Scalar>{.x_scale = predicted.norm() + detail::tiny_scale<Scalar>(), .tangent = &K});
+    if (!rep.ok()) return rep;
+    // Branch rule [V6]: K → J as h → 0 (either sign of h), so det K > 0 on the continued root.
+    if (!detail::on_branch(options, Scalar(Theta.norm()), Scalar((Theta - predicted).norm()), Scalar(K.determinant()))) {
+      rep.status = StepStatus::wrong_branch;
+      return rep;
+    }
+    const detail::HalfAngle<Scalar> ha = detail::half_angle_from_squared(Theta.squaredNorm());
+    const Matrix3 F = SO3<Scalar>::rodrigues(Theta, ha.sinc(), ha.one_minus_cos_over_sq());
+    // [V4], in frame n, then turned into frame n+1 by Fᵀ.
+    Vector3 impulse = d.Pi_n;
+    if constexpr (Scene::has_potential)
+      impulse += (h / Scalar(2)) * (tau_n + scene.conservative_torque(d.caches, F));  // τ_c at Λ_n and Λ_{n+1}
+    if constexpr (Scene::has_applied_torque) impulse += h * residual.applied_at_mid(Theta, ha);
+    out.rotation = in.rotation.times_exp(Theta, ha);  // [V3]
+    out.omega = scene.body().inertia_inverse() * (F.transpose() * impulse);
+    out.time = in.time + h;
+    if (!detail::all_finite(out.omega)) rep.status = StepStatus::non_finite;
+    return rep;
+  }
+};
+
+}  // namespace trompo

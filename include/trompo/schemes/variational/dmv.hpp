@@ -113,7 +113,11 @@ struct DMV {
     }
     // Λ_{n+1} = Λ_n F (q_n ⊗ (e₀, e), normalised), Π_{n+1} = Fᵀ Π_n
     out.rotation = in.rotation * SO3<Scalar>::renormalized(q);
-    out.omega = J_inv * (F.transpose() * Pi_n);
+    // Ω_{n+1} = Ω_n + J⁻¹(FᵀΠ_n − Π_n), FᵀΠ_n − Π_n = −2e₀ e × Π_n + 2 e × (e × Π_n): small
+    // terms only, so that no rounding of a large part (Fᵀ as a matrix, a rounded J⁻¹ on Π)
+    // repeats itself from step to step and drifts |π| like N·ε (lgvi.hpp, measured there).
+    const Vector3 c1 = e.cross(Pi_n);
+    out.omega = in.omega + J_inv * (Scalar(2) * (e.cross(c1) - e0 * c1));
     out.time = in.time + h;
     if (!detail::all_finite(out.omega)) rep.status = StepStatus::non_finite;
     return rep;

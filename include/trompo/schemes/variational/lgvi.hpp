@@ -21,8 +21,10 @@
 //
 // Symplectic and symmetric (L_d(Λ_n, Λ_{n+1}; h) = −L_d(Λ_{n+1}, Λ_n; −h)); order 2;
 // π exact on the free body and μ = γ·π under potentials symmetric about γ (discrete
-// Noether: L_d is invariant under Λ ↦ R Λ for R about γ); H not exact but bounded (a
-// modified energy is kept to O(h^N) over exponentially long times).
+// Noether: L_d is invariant under Λ ↦ R Λ for R about γ); on the free body the map is
+// the discrete Moser–Veselov algorithm, which also keeps H exactly; under a potential H
+// is not exact but bounded (a modified energy is kept to O(h^N) over exponentially long
+// times).
 //
 // Scenes: the free body, potentials (uniform gravity, general V, the gravity gradient with
 // t frozen at the mid time as the other implicit schemes do) and applied torques. Not
@@ -114,11 +116,12 @@ struct LGVI {
   /// "lgvi".
   static constexpr const char* name = "lgvi";
   /// Order 2; symmetric (composable to orders 4 and 6); keeps μ (wherever the scene's flow
-  /// does) and π on the free body, not H (bounded); memoryless; no wheels.
+  /// does), and on the free body π and H (the map is then the DMV's, which keeps both
+  /// integrals); H is otherwise not exact but bounded; memoryless; no wheels.
   static constexpr SchemeTraits traits{
       .order = 2,
       .symmetric = true,
-      .keeps = [](SceneKind s) { return Keeps{.momentum_map = true, .spatial_momentum = s.is_free}; }};
+      .keeps = [](SceneKind s) { return Keeps{.energy = s.is_free, .momentum_map = true, .spatial_momentum = s.is_free}; }};
 
   /// One step: Newton on [V2] from Θ⁰ = hΩ_n + (h²/2)Ω̇_n, the branch rule, then [V3]–[V4].
   /// Not declared for scenes with rotors or wheels (see the file comment).
@@ -148,14 +151,24 @@ struct LGVI {
       return rep;
     }
     const detail::HalfAngle<Scalar> ha = detail::half_angle_from_squared(Theta.squaredNorm());
-    const Matrix3 F = SO3<Scalar>::rodrigues(Theta, ha.sinc(), ha.one_minus_cos_over_sq());
-    // [V4], in frame n, then turned into frame n+1 by Fᵀ.
-    Vector3 impulse = d.Pi_n;
-    if constexpr (Scene::has_potential)
-      impulse += (h / Scalar(2)) * (tau_n + scene.conservative_torque(d.caches, F));  // τ_c at Λ_n and Λ_{n+1}
-    if constexpr (Scene::has_applied_torque) impulse += h * residual.applied_at_mid(Theta, ha);
+    const Scalar a = ha.sinc(), b = ha.one_minus_cos_over_sq();
+    // [V4] in frame n: impulse = Π_n + kick, kick = (h/2)(τ_c(Λ_n) + τ_c(Λ_{n+1})) + hτ_a,m;
+    // then turned into frame n+1 by Fᵀ.
+    Vector3 kick = Vector3::Zero();
+    if constexpr (Scene::has_potential)  // τ_c at Λ_n and Λ_{n+1} = Λ_n F
+      kick += (h / Scalar(2)) * (tau_n + scene.conservative_torque_rodrigues(d.caches, Theta, a, b));
+    if constexpr (Scene::has_applied_torque) kick += h * residual.applied_at_mid(Theta, ha);
+    const Vector3 impulse = d.Pi_n + kick;
     out.rotation = in.rotation.times_exp(Theta, ha);  // [V3]
-    out.omega = scene.body().inertia_inverse() * (F.transpose() * impulse);
+    // Π_{n+1} − Π_n = kick − aΘ × impulse + bΘ × (Θ × impulse)  (Fᵀx = x − aΘ×x + bΘ×(Θ×x)),
+    // and Ω_{n+1} = Ω_n + J⁻¹(Π_{n+1} − Π_n): every term small, so the rounding of the
+    // large parts (Fᵀ as a matrix, Ω = J⁻¹Π with a rounded J⁻¹) does not repeat itself from
+    // step to step. Written as Π_{n+1} = Fᵀ·impulse, Ω = J⁻¹Π_{n+1}, |π| drifted like N·ε
+    // while Θ is nearly steady (measured after 10⁶ steps on FB1: −2.7e-12 with Fᵀ as a
+    // matrix, +3.2e-12 with these small terms but Ω from Π; 3.3e-14 now, Simo-κ's 3.5e-14).
+    const Vector3 c1 = Theta.cross(impulse);
+    const Vector3 dPi = kick - a * c1 + b * Theta.cross(c1);
+    out.omega = in.omega + scene.body().inertia_inverse() * dPi;
     out.time = in.time + h;
     if (!detail::all_finite(out.omega)) rep.status = StepStatus::non_finite;
     return rep;

@@ -364,7 +364,60 @@ TEST_CASE("fourth family: the LGVI under applied torques and a general potential
   SHOW("lgvi: damped asymmetric top order " << o1 << ", sat1 order " << o2);
   CHECK(std::abs(o1 - 2) <= 0.2);
   CHECK(std::abs(o2 - 2) <= 0.2);
-  // Scenes with rotors or wheels are not stepped (the gyroscopic term needs its own L_d).
-  STATIC_REQUIRE_FALSE(SchemeFor<LGVI, Scene<double, Rotor<double>>>);
+  // The DMV steps the free body only.
   STATIC_REQUIRE_FALSE(SchemeFor<DMV, cases::Top<double>>);
+}
+
+TEST_CASE("fourth family: the LGVI with a rotor (gyrostat): tangent, order 2, symmetric, pi and mu exact", "[fourth][rotor]") {
+  using Gyro = Scene<double, UniformGravity<double>, Rotor<double>>;
+  using FreeGyro = Scene<double, Rotor<double>>;
+  const Vec3 h_r(0.5, -1.0, 2.0);
+  const Gyro top(RigidBody<double>(Vec3(1, 2, 3)), UniformGravity<double>(5.0, Vec3(0.3, 0.2, 1).normalized(), Vec3::UnitZ()),
+                 Rotor<double>(h_r));
+  const FreeGyro free(RigidBody<double>(Vec3(1, 2, 3)), Rotor<double>(h_r));
+  const State<double> s0 = asymmetric_top().initial;
+  // [V5] with the rotor's term against central differences.
+  const detail::StepData<Gyro> d(top, s0, 0.1);
+  const detail::LgviResidual<Gyro> residual(d, Vec3(0.1, 0.2, 0.3));
+  const Vec3 theta(0.1, 0.2, -0.05);
+  Vec3 R, Rp, Rm;
+  Mat3 K, K_fd;
+  double scale = 0;
+  residual(theta, R, &K, scale);
+  for (int j = 0; j < 3; ++j) {
+    const Vec3 e = 1e-6 * Vec3::Unit(j);
+    residual(theta + e, Rp, nullptr, scale);
+    residual(theta - e, Rm, nullptr, scale);
+    K_fd.col(j) = (Rp - Rm) / 2e-6;
+  }
+  INFO("K\n" << K << "\ncentral differences\n" << K_fd);
+  CHECK((K - K_fd).cwiseAbs().maxCoeff() <= 1e-8);
+  const Stepper<LGVI, Gyro> st(LGVI{}, top);
+  const double order = self_order(st, s0, 2.0, 100);
+  SHOW("lgvi on a heavy gyrostat: order " << order);
+  CHECK(std::abs(order - 2) <= 0.1);
+  State<double> s = s0;
+  REQUIRE(st.step(s, 0.01).ok());
+  REQUIRE(st.step(s, -0.01).ok());
+  CHECK(distance(s, s0) <= 1e-13);
+  // μ under gravity, π without it (10⁵ steps: round-off only).
+  const Stepper<LGVI, FreeGyro> sf(LGVI{}, free);
+  State<double> a = s0, b = s0;
+  const double mu0 = top.momentum_map(a), norm = top.spatial_momentum(a).norm();
+  const Vec3 pi0 = free.spatial_momentum(b);
+  double dmu = 0, dpi = 0;
+  for (long k = 0; k < million / 10; ++k) {
+    REQUIRE(st.step(a, 0.01).ok());
+    REQUIRE(sf.step(b, 0.01).ok());
+    if (k % 100 == 99) {
+      dmu = std::max(dmu, std::abs(top.momentum_map(a) - mu0) / norm);
+      dpi = std::max(dpi, (free.spatial_momentum(b) - pi0).norm() / pi0.norm());
+    }
+  }
+  SHOW("lgvi gyrostat, " << million / 10 << " steps of 0.01: |dmu|/|pi| " << dmu << " (gravity), |dpi|/|pi| " << dpi << " (free)");
+  const double bound = 4 * std::sqrt(double(million / 10)) * std::numeric_limits<double>::epsilon();
+  CHECK(dmu <= bound);
+  CHECK(dpi <= bound);
+  CHECK(keeps<FreeGyro>(LGVI{}).spatial_momentum);
+  CHECK_FALSE(keeps<FreeGyro>(LGVI{}).energy);
 }

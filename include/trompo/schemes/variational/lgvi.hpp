@@ -27,8 +27,10 @@
 // times).
 //
 // Scenes: the free body, potentials (uniform gravity, general V, the gravity gradient with
-// t frozen at the mid time as the other implicit schemes do) and applied torques. Not
-// rotors nor wheels (their gyroscopic term Ω·h_r needs its own discrete Lagrangian; the
+// t frozen at the mid time as the other implicit schemes do), applied torques, and rotors
+// of constant momentum h_r (the gyrostat): their gyroscopic term Ω·h_r enters L_d as
+// h_r·vee(F − Fᵀ)/2, which adds (h/2)(tr F I − Fᵀ)h_r − h h_r to [V2] and keeps π = ΛΠ,
+// Π = JΩ + h_r, exact. Not wheels (their h_w(t) would need a forced discrete principle; the
 // step is not declared for them, so SchemeFor refuses such a scene).
 #include <Eigen/Core>
 #include <cmath>
@@ -59,7 +61,7 @@ class LgviResidual {
 
   /// At the step's data d; `tau_n` the conservative torque at Λ_n (frame n, zero without).
   LgviResidual(const StepData<Scene>& d, const Vector3& tau_n)
-      : d_(d), rhs_(d.h * (d.Pi_n + (d.h / Scalar(2)) * tau_n)), rhs_norm_(rhs_.norm()) {}
+      : d_(d), rhs_(d.h * (d.scene.body().momentum(d.omega_n) + (d.h / Scalar(2)) * tau_n)), rhs_norm_(rhs_.norm()) {}
 
   /// R(Θ) = a JΘ + b Θ × JΘ − h Π_n − (h²/2)(τ_c,n + τ_a,m) [V2]; with K, the tangent [V5].
   bool operator()(const Vector3& Theta, Vector3& R, Matrix3* K, Scalar& scale) const {
@@ -74,12 +76,27 @@ class LgviResidual {
     // vee(F J_d − J_d Fᵀ) = a JΘ + b Θ × JΘ  [V2]
     R = a * JTheta + b * Theta.cross(JTheta) - rhs_;
     scale = rhs_norm_ + JTheta.norm();
+    [[maybe_unused]] Vector3 Ft_hr;  // Fᵀh_r
+    if constexpr (Scene::has_rotor) {
+      // The rotor's term [V1]/[V2]: (h/2)(tr F I − Fᵀ)h_r − h h_r, i.e. with tr F = 3 − 2bθ²
+      // and Fᵀx = x − aΘ×x + bΘ×(Θ×x), (h/2)(aΘ×h_r − b(2θ²h_r + Θ×(Θ×h_r))): small terms
+      // only (the h h_r of hΠ_n is taken out of rhs_ instead of cancelled here).
+      const Vector3 h_r = rotor_momentum(scene);
+      const Vector3 c = Theta.cross(h_r);
+      R += (h / Scalar(2)) * (a * c - b * (Scalar(2) * Theta.squaredNorm() * h_r + Theta.cross(c)));
+      Ft_hr = h_r - a * c + b * Theta.cross(c);
+      scale += std::abs(h) * h_r.norm();
+    }
     if (K) {
       const Matrix3 F = G::rodrigues(Theta, a, b);
       const Matrix3 J_d = Scalar(0.5) * J.trace() * Matrix3::Identity() - J;
       // ∂/∂Θ of vee(F J_d − J_d Fᵀ) along F exp((T(Θ)δ)^): (tr(F J_d) I − F J_d) F T(Θ)  [V5]
       const Matrix3 FJ_d = F * J_d;
-      *K = (FJ_d.trace() * Matrix3::Identity() - FJ_d) * F * G::right_tangent(Theta);
+      const Matrix3 T = G::right_tangent(Theta);
+      *K = (FJ_d.trace() * Matrix3::Identity() - FJ_d) * F * T;
+      // the rotor's: δ[(tr F I − Fᵀ)h_r] = (−2a h_r Θᵀ − (Fᵀh_r)^) η, η = T(Θ)δΘ  [V5]
+      if constexpr (Scene::has_rotor)
+        *K += (h / Scalar(2)) * (Scalar(-2) * a * rotor_momentum(scene) * Theta.transpose() - G::hat(Ft_hr)) * T;
     }
     if constexpr (Scene::has_applied_torque) {
       // τ_a at Λ_{n+½} = Λ_n exp(Θ̂/2), Ω_m = Θ/h (docs/theory.md §5), half of its impulse
@@ -94,6 +111,12 @@ class LgviResidual {
     return true;
   }
 
+  /// h_r, the scene's rotors' momentum (zero without).
+  static Vector3 rotor_momentum(const Scene& scene) {
+    if constexpr (Scene::has_rotor) return scene.rotor_momentum();
+    else return Vector3::Zero();
+  }
+
   /// τ_a,m: the applied torques at the mid configuration Λ_n exp(Θ̂/2) and Ω_m = Θ/h
   /// (frame n), with their Jacobians if asked.
   Vector3 applied_at_mid(const Vector3& Theta, const HalfAngle<Scalar>& ha, Matrix3* d_rot = nullptr,
@@ -104,7 +127,7 @@ class LgviResidual {
 
  private:
   const StepData<Scene>& d_;
-  Vector3 rhs_;  ///< h Π_n + (h²/2) τ_c(Λ_n)
+  Vector3 rhs_;  ///< h JΩ_n + (h²/2) τ_c(Λ_n) (h Π_n less the rotor's h h_r)
   Scalar rhs_norm_;
 };
 
@@ -116,17 +139,23 @@ struct LGVI {
   /// "lgvi".
   static constexpr const char* name = "lgvi";
   /// Order 2; symmetric (composable to orders 4 and 6); keeps μ (wherever the scene's flow
-  /// does), and on the free body π and H (the map is then the DMV's, which keeps both
-  /// integrals); H is otherwise not exact but bounded; memoryless; no wheels.
+  /// does), π without external torque (the free body, the gyrostat), and H on the free body
+  /// (the map is then the DMV's, which keeps both integrals); H is otherwise not exact but
+  /// bounded; memoryless; no wheels.
   static constexpr SchemeTraits traits{
       .order = 2,
       .symmetric = true,
-      .keeps = [](SceneKind s) { return Keeps{.energy = s.is_free, .momentum_map = true, .spatial_momentum = s.is_free}; }};
+      .keeps =
+          [](SceneKind s) {
+            return Keeps{.energy = s.is_free,
+                         .momentum_map = true,
+                         .spatial_momentum = !s.has_potential && !s.has_applied_torque && !s.has_wheels};
+          }};
 
   /// One step: Newton on [V2] from Θ⁰ = hΩ_n + (h²/2)Ω̇_n, the branch rule, then [V3]–[V4].
-  /// Not declared for scenes with rotors or wheels (see the file comment).
+  /// Not declared for scenes with wheels (see the file comment).
   template <class Scene>
-    requires(!Scene::has_rotor && !Scene::has_wheels)
+    requires(!Scene::has_wheels)
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h,
                                           const NewtonOptions<typename Scene::Scalar>& options,

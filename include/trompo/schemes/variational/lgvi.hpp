@@ -36,11 +36,12 @@
 #include <cmath>
 
 #include "trompo/lie/so3.hpp"
+#include "trompo/model/body.hpp"
 #include "trompo/model/state.hpp"
+#include "trompo/schemes/history.hpp"
 #include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/scheme.hpp"
 #include "trompo/schemes/step_data.hpp"
-#include "trompo/solvers/damped_newton.hpp"
 #include "trompo/solvers/newton.hpp"
 
 namespace trompo {
@@ -72,7 +73,7 @@ class LgviResidual {
     const HalfAngle<Scalar> ha = half_angle_from_squared(Theta.squaredNorm());
     const Scalar a = ha.sinc();                   // sin θ/θ
     const Scalar b = ha.one_minus_cos_over_sq();  // (1 − cos θ)/θ²
-    const Vector3 JTheta = J * Theta;
+    const Vector3 JTheta = scene.body().momentum(Theta);  // JΘ (three products for a diagonal J)
     // vee(F J_d − J_d Fᵀ) = a JΘ + b Θ × JΘ  [V2]
     R = a * JTheta + b * Theta.cross(JTheta) - rhs_;
     scale = rhs_norm_ + JTheta.norm();
@@ -131,64 +132,55 @@ class LgviResidual {
   Scalar rhs_norm_;
 };
 
-}  // namespace detail
+/// J⁻¹v (three products for a diagonal J).
+template <class Scalar>
+Eigen::Matrix<Scalar, 3, 1> inverse_inertia_times(const RigidBody<Scalar>& body, const Eigen::Matrix<Scalar, 3, 1>& v) {
+  if (body.is_diagonal()) return body.inertia_inverse().diagonal().cwiseProduct(v);
+  return body.inertia_inverse() * v;
+}
 
-/// The Lie group variational integrator of Lee, Leok & McClamroch [V1]–[V6]: symplectic,
-/// symmetric, order 2; π exact on the free body, μ under symmetric potentials; H bounded.
-struct LGVI {
-  /// "lgvi".
-  static constexpr const char* name = "lgvi";
-  /// Order 2; symmetric (composable to orders 4 and 6); keeps μ (wherever the scene's flow
-  /// does), π without external torque (the free body, the gyrostat), and H on the free body
-  /// (the map is then the DMV's, which keeps both integrals); H is otherwise not exact but
-  /// bounded; memoryless; no wheels.
-  static constexpr SchemeTraits traits{
-      .order = 2,
-      .symmetric = true,
-      .keeps =
-          [](SceneKind s) {
-            return Keeps{.energy = s.is_free,
-                         .momentum_map = true,
-                         .spatial_momentum = !s.has_potential && !s.has_applied_torque && !s.has_wheels};
-          }};
+/// An LGVI step as the problem of detail::implicit_step: Newton's unknown is Θ itself,
+/// the history extrapolates Θ ([P1]–[P3] of docs/theory.md §13, as for Simo-κ).
+template <class Scene>
+class LgviProblem {
+ public:
+  /// The floating-point type.
+  using Scalar = typename Scene::Scalar;
+  /// A 3-vector of Scalar.
+  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+  /// A 3×3 matrix of Scalar.
+  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
-  /// One step: Newton on [V2] from Θ⁰ = hΩ_n + (h²/2)Ω̇_n, the branch rule, then [V3]–[V4].
-  /// Not declared for scenes with wheels (see the file comment).
-  template <class Scene>
-    requires(!Scene::has_wheels)
-  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
-                                          typename Scene::Scalar h,
-                                          const NewtonOptions<typename Scene::Scalar>& options,
-                                          State<typename Scene::Scalar>& out, NoMemory&) const {
-    using Scalar = typename Scene::Scalar;
-    using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-    using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-    const detail::StepData<Scene> d(scene, in, h);
-    Vector3 tau_n = Vector3::Zero();  // τ_c(Λ_n), frame n
-    if constexpr (Scene::has_potential) tau_n = scene.conservative_torque(d.caches, Matrix3::Identity());
-    const detail::LgviResidual<Scene> residual(d, tau_n);
-    const Vector3 predicted = d.predicted_increment();  // Θ⁰ = hΩ_n + (h²/2)Ω̇_n: [V2] to O(h³)
-    Vector3 Theta = predicted;
-    Matrix3 K;
-    StepReport<Scalar> rep = detail::newton(
-        residual, Theta, options,
-        NewtonSolve<Scalar>{.x_scale = predicted.norm() + detail::tiny_scale<Scalar>(), .tangent = &K});
-    if (!rep.ok()) return rep;
-    // Branch rule [V6]: K → J as h → 0 (either sign of h), so det K > 0 on the continued root.
-    if (!detail::on_branch(options, Scalar(Theta.norm()), Scalar((Theta - predicted).norm()), Scalar(K.determinant()))) {
-      rep.status = StepStatus::wrong_branch;
-      return rep;
-    }
-    const detail::HalfAngle<Scalar> ha = detail::half_angle_from_squared(Theta.squaredNorm());
+  /// At the step's data d from the state `in`.
+  LgviProblem(const StepData<Scene>& d, const State<Scalar>& in)
+      : d_(d), in_(in), tau_n_(start_torque(d)), residual_(d, tau_n_) {}
+
+  /// [V2] and [V5].
+  const LgviResidual<Scene>& residual() const { return residual_; }
+  /// [P1]: Θ⁰ the extrapolated increment.
+  ImplicitStart<Scalar> from_history(const Vector3& Theta0) const { return {Theta0, Theta0, Scalar(Theta0.norm())}; }
+  /// Θ⁰ = hΩ_n + (h²/2)Ω̇_n: [V2] to O(h³).
+  ImplicitStart<Scalar> memoryless() const { return from_history(d_.predicted_increment()); }
+  /// The root is Θ.
+  ImplicitRoot<Scalar> root(const Vector3& Theta) const { return {Theta, Scalar(Theta.norm())}; }
+  /// The fold rule [V6]: K → J as h → 0 (either sign of h), so det K > 0 on the continued root.
+  Scalar orientation(const Matrix3& K) const { return K.determinant(); }
+  /// The same from K⁻¹ (det K⁻¹ has the sign of det K).
+  Scalar orientation_inverse(const Matrix3& K_inv) const { return K_inv.determinant(); }
+  /// [V3]–[V4] from the root Θ.
+  void advance(const Vector3& Theta, State<Scalar>& out) const {
+    const Scene& scene = d_.scene;
+    const Scalar h = d_.h;
+    const HalfAngle<Scalar> ha = half_angle_from_squared(Theta.squaredNorm());
     const Scalar a = ha.sinc(), b = ha.one_minus_cos_over_sq();
     // [V4] in frame n: impulse = Π_n + kick, kick = (h/2)(τ_c(Λ_n) + τ_c(Λ_{n+1})) + hτ_a,m;
     // then turned into frame n+1 by Fᵀ.
     Vector3 kick = Vector3::Zero();
     if constexpr (Scene::has_potential)  // τ_c at Λ_n and Λ_{n+1} = Λ_n F
-      kick += (h / Scalar(2)) * (tau_n + scene.conservative_torque_rodrigues(d.caches, Theta, a, b));
-    if constexpr (Scene::has_applied_torque) kick += h * residual.applied_at_mid(Theta, ha);
-    const Vector3 impulse = d.Pi_n + kick;
-    out.rotation = in.rotation.times_exp(Theta, ha);  // [V3]
+      kick += (h / Scalar(2)) * (tau_n_ + scene.conservative_torque_rodrigues(d_.caches, Theta, a, b));
+    if constexpr (Scene::has_applied_torque) kick += h * residual_.applied_at_mid(Theta, ha);
+    const Vector3 impulse = d_.Pi_n + kick;
+    out.rotation = in_.rotation.times_exp(Theta, ha);  // [V3]
     // Π_{n+1} − Π_n = kick − aΘ × impulse + bΘ × (Θ × impulse)  (Fᵀx = x − aΘ×x + bΘ×(Θ×x)),
     // and Ω_{n+1} = Ω_n + J⁻¹(Π_{n+1} − Π_n): every term small, so the rounding of the
     // large parts (Fᵀ as a matrix, Ω = J⁻¹Π with a rounded J⁻¹) does not repeat itself from
@@ -197,10 +189,70 @@ struct LGVI {
     // matrix, +3.2e-12 with these small terms but Ω from Π; 3.3e-14 now, Simo-κ's 3.5e-14).
     const Vector3 c1 = Theta.cross(impulse);
     const Vector3 dPi = kick - a * c1 + b * Theta.cross(c1);
-    out.omega = in.omega + scene.body().inertia_inverse() * dPi;
-    out.time = in.time + h;
-    if (!detail::all_finite(out.omega)) rep.status = StepStatus::non_finite;
-    return rep;
+    out.omega = in_.omega + inverse_inertia_times(scene.body(), dPi);
+    out.time = in_.time + h;
+  }
+  /// The history records Θ.
+  Vector3 recorded(const Vector3& Theta) const { return Theta; }
+
+ private:
+  /// τ_c(Λ_n) in frame n (zero without a potential).
+  static Vector3 start_torque(const StepData<Scene>& d) {
+    if constexpr (Scene::has_potential) return d.scene.conservative_torque(d.caches, Matrix3::Identity());
+    else return Vector3::Zero();
+  }
+
+  const StepData<Scene>& d_;
+  const State<Scalar>& in_;
+  Vector3 tau_n_;                  ///< τ_c(Λ_n), frame n
+  LgviResidual<Scene> residual_;  ///< [V2]
+};
+
+}  // namespace detail
+
+/// The Lie group variational integrator of Lee, Leok & McClamroch [V1]–[V6]: symplectic,
+/// symmetric, order 2; π exact without external torque, μ under symmetric potentials; H
+/// bounded (exact on the free body).
+struct LGVI {
+  /// "lgvi".
+  static constexpr const char* name = "lgvi";
+  /// Order 2; symmetric (composable to orders 4 and 6); keeps μ (wherever the scene's flow
+  /// does), π without external torque (the free body, the gyrostat), and H on the free body
+  /// (the map is then the DMV's, which keeps both integrals); H is otherwise not exact but
+  /// bounded. Its memory, the history predictor's (as Simo-κ's), is only a hint: a plain
+  /// State may be stepped; the step writes it only on success. No wheels.
+  static constexpr SchemeTraits traits{
+      .order = 2,
+      .symmetric = true,
+      .keeps =
+          [](SceneKind s) {
+            return Keeps{.energy = s.is_free,
+                         .momentum_map = true,
+                         .spatial_momentum = !s.has_potential && !s.has_applied_torque && !s.has_wheels};
+          },
+      .memory = MemoryUse::hint,
+      .writes_memory_on_success = true};
+
+  /// Whether the steps of a Trajectory start from the history predictor and the carried
+  /// tangent (schemes/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved
+  /// from Θ⁰ = hΩ_n + (h²/2)Ω̇_n. Either way the step's acceptance, hence the map, is the same.
+  bool history_predictor = true;
+  /// The last increments and tangent (IncrementHistory), per trajectory.
+  template <class Scene>
+  using Memory = IncrementHistory<typename Scene::Scalar>;
+
+  /// One step: Newton on [V2] from the history's extrapolation (or Θ⁰), the branch rule
+  /// [V6], then [V3]–[V4], by the implicit-step sequence of implicit_step.hpp. Not declared
+  /// for scenes with wheels (see the file comment).
+  template <class Scene>
+    requires(!Scene::has_wheels)
+  StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
+                                          typename Scene::Scalar h,
+                                          const NewtonOptions<typename Scene::Scalar>& options,
+                                          State<typename Scene::Scalar>& out, Memory<Scene>& memory) const {
+    const detail::StepData<Scene> d(scene, in, h);
+    return detail::implicit_step(detail::LgviProblem<Scene>(d, in), options, h, out,
+                                 history_predictor ? &memory : nullptr);
   }
 };
 

@@ -8,6 +8,8 @@
 //                            10^4 tops: the cost of one step of a single run
 //   BM_Ensemble/threads:T    integrate_ensemble over all 10^4 tops with T threads
 //                            (wall time: UseRealTime)
+//   BM_Sweep/threads:T/shuffled:S  a sweep whose members' costs rise along it (spin 5 … 400
+//                            rad/s), in order or shuffled: the dynamic schedule's case
 //
 // Counters: ns_per_member_step (time / member-steps; the ensembles': wall time), and for
 // the ensembles cpu_ns_per_member_step (CPU time of all threads / member-steps). The targets of issue 14: on one
@@ -21,6 +23,7 @@
 #include <sys/resource.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
 #include <random>
 #include <vector>
@@ -105,6 +108,47 @@ void BM_Ensemble(benchmark::State& state) {
                                                             benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Ensemble)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
+
+/// A parameter sweep whose members' costs rise along the range: axial spin 5 … 400 rad/s in
+/// order (Newton needs more iterations at larger hΩ), 2,000 tops, t_end = 0.5; `shuffled`
+/// gives the same members in a fixed random order.
+const std::vector<State<double>>& sweep(bool shuffled) {
+  static const auto make = [](bool shuffle) {
+    constexpr std::size_t n = 2000;
+    std::vector<State<double>> out(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      out[i].rotation = SO3d::exp(Vec3(0.2, 0, 0));
+      out[i].omega = Vec3(0.1, 0, 5 + 395 * static_cast<double>(i) / (n - 1));
+    }
+    if (shuffle) std::shuffle(out.begin(), out.end(), std::mt19937_64(37));
+    return out;
+  };
+  static const std::vector<State<double>> in_order = make(false), mixed = make(true);
+  return shuffled ? mixed : in_order;
+}
+
+/// The sweep in order (range(1) = 0) or shuffled (1) with range(0) threads. Compare each
+/// one's threads:2 against threads:1: the dynamic schedule (ensemble.hpp) should give the
+/// in-order sweep the shuffled one's speed-up (issue 37: within 5 %).
+void BM_Sweep(benchmark::State& state) {
+  const unsigned threads = static_cast<unsigned>(state.range(0));
+  const bool shuffled = state.range(1) != 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    std::vector<State<double>> m = sweep(shuffled);
+    state.ResumeTiming();
+    const auto sums = integrate_ensemble(stepper(), m, 0.5, kH, {.threads = threads});
+    benchmark::DoNotOptimize(m.data());
+    for (const auto& s : sums)
+      if (!s.ok()) state.SkipWithError("a member failed");
+  }
+}
+BENCHMARK(BM_Sweep)
+    ->ArgNames({"threads", "shuffled"})
+    ->ArgsProduct({{1, 2}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 }  // namespace
 

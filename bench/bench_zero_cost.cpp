@@ -18,6 +18,11 @@
 // between the free scene's and the hand-written step's final states.
 //
 //   build/report/bench/trompo-bench-zero-cost --benchmark_filter=Ratios
+//
+// BM_CompensatedCost/k: what the compensated state costs a Simo-κ step of HT0 at h = 10^−k
+// (plain and compensated trajectories in interleaved blocks; docs/theory.md §18).
+//
+//   build/report/bench/trompo-bench-zero-cost --benchmark_filter=Compensated
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Core>
@@ -311,6 +316,47 @@ void BM_ZeroCostRatios(benchmark::State& st) {
   c["max|free-hand|"] = max_diff;
 }
 BENCHMARK(BM_ZeroCostRatios)->Iterations(400)->Unit(benchmark::kMillisecond);
+
+// ---- the compensated state's cost (docs/theory.md §18) --------------------------------------------
+/// Simo-κ on HT0 at h (state.range(0) = −log10 h): blocks of 256 steps of a plain and of a
+/// compensated Trajectory, interleaved, each walking its own trajectory. Reports the median
+/// per-step times, their ratio and the heap allocations per step.
+void BM_CompensatedCost(benchmark::State& st) {
+  const double h = std::pow(10.0, -static_cast<double>(st.range(0)));
+  const auto c = trompo::cases::ht0<double>();
+  trompo::SimoKappa plain, compensated;
+  compensated.compensated = true;
+  const trompo::Stepper<trompo::SimoKappa, trompo::cases::Top<double>> st_plain(plain, c.scene),
+      st_comp(compensated, c.scene);
+  auto traj_plain = st_plain.start(c.initial);
+  auto traj_comp = st_comp.start(c.initial);
+  std::vector<double> times[2];
+  long allocations = 0, steps = 0, round = 0;
+  for (auto _ : st) {
+    for (int j = 0; j < 2; ++j) {
+      const int v = static_cast<int>((j + round) % 2);  // alternate which runs first
+      const long a0 = g_allocations.load();
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int k = 0; k < kBlock; ++k) {
+        if (v == 0) (void)st_plain.step(traj_plain, h);
+        else (void)st_comp.step(traj_comp, h);
+      }
+      const auto t1 = std::chrono::steady_clock::now();
+      allocations += g_allocations.load() - a0;
+      times[v].push_back(std::chrono::duration<double, std::nano>(t1 - t0).count() / kBlock);
+    }
+    benchmark::DoNotOptimize(traj_plain);
+    benchmark::DoNotOptimize(traj_comp);
+    steps += 2 * kBlock;
+    ++round;
+  }
+  const double plain_ns = median(times[0]), comp_ns = median(times[1]);
+  st.counters["plain_ns"] = plain_ns;
+  st.counters["compensated_ns"] = comp_ns;
+  st.counters["compensated/plain"] = comp_ns / plain_ns;
+  st.counters["heap_allocs_per_step"] = static_cast<double>(allocations) / static_cast<double>(steps);
+}
+BENCHMARK(BM_CompensatedCost)->Arg(2)->Arg(3)->Arg(5)->Iterations(400)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

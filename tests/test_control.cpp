@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <vector>
 
@@ -79,7 +80,12 @@ TEMPLATE_TEST_CASE("wheels: total momentum and the energy balance under random c
   Wheels rw = four_wheels();
   const Mat3 J = (Mat3() << 900, 20, -10, 20, 800, 15, -10, 15, 600).finished();
   using Sc = Scene<double, Wheels>;
-  Stepper<TestType, Sc> stepper(TestType{}, Sc(rw.hub_body(J), rw));
+  // Simo-κ and collocation with the compensated state (docs/theory.md §18); Simo-α has no
+  // memory to carry it in.
+  TestType scheme;
+  constexpr bool compensated = requires { scheme.compensated; };
+  if constexpr (compensated) scheme.compensated = true;
+  Stepper<TestType, Sc> stepper(scheme, Sc(rw.hub_body(J), rw));
   State<double> s;
   s.rotation = SO3d::exp(Vec3(0.3, -0.2, 0.5));
   s.omega = Vec3(0.05, -0.1, 0.2);
@@ -94,7 +100,10 @@ TEMPLATE_TEST_CASE("wheels: total momentum and the energy balance under random c
   const Vec3 pi0 = stepper.scene().spatial_momentum(s);
   const double h = 0.02;
   double max_pi = 0, max_balance = 0;
-  const int n = 100000;
+  // TROMPO_CONTROL_STEPS=1000000 runs the issue's 10⁶ steps (docs/control.md, "Targets").
+  const char* steps_env = std::getenv("TROMPO_CONTROL_STEPS");
+  const int n = steps_env ? std::atoi(steps_env) : 100000;
+  REQUIRE(n > 0);
   // At each row: its time, H, the command held from it on, and the wheels' speeds.
   struct Row {
     double t, H;
@@ -118,8 +127,11 @@ TEMPLATE_TEST_CASE("wheels: total momentum and the energy balance under random c
   REQUIRE(sum.ok());
   CHECK(sum.steps == n);
   INFO("max |pi - pi0|/|pi0| = " << max_pi << ", max energy-balance residual = " << max_balance);
-  // Round-off only: a walk of ~√N·ε (measured 8.2e-14 after 10^5 steps; √N·ε = 3.5e-14).
-  CHECK(max_pi <= 2e-13);
+  // Round-off only. Plain state: a walk of ~√N·ε (measured 1.4e-14 after 10^5 steps; √N·ε =
+  // 7e-14). Compensated: what is left is the increments' own rounding, O(ε·hΩ) a step
+  // (measured 5.8e-16 after 10^5 steps).
+  if constexpr (compensated) CHECK(max_pi <= 4e-15);
+  else CHECK(max_pi <= 3 * std::sqrt(double(n)) * 2.22e-16);
   CHECK(max_balance <= 1e-14);
   // The commands did something: the wheels' speeds moved far from their start.
   CHECK((stepper.scene().template effect<Wheels>().speeds(s.time, s.omega) - four_wheels().speeds(0, Vec3::Zero())).norm() > 1);

@@ -40,7 +40,7 @@ bool same_summary(const IntegrationSummary<double>& a, const IntegrationSummary<
 
 }  // namespace
 
-TEST_CASE("ensemble: each member is bit-identical to its single integrate run, for 1, 2 and 3 threads", "[ensemble]") {
+TEST_CASE("ensemble: each member is bit-identical to its single integrate run, for 1, 2 and 3 threads and any chunk", "[ensemble]") {
   const auto ht1 = cases::ht1<double>();
   const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
   const auto start = ht1_members(7);
@@ -50,10 +50,13 @@ TEST_CASE("ensemble: each member is bit-identical to its single integrate run, f
   std::vector<IntegrationSummary<double>> single_sum;
   for (auto& s : single) single_sum.push_back(integrate(stepper, s, t_end, h));
 
-  for (unsigned threads : {1u, 2u, 3u}) {
-    INFO("threads " << threads);
+  // Chunks of 1, 2 and the default (dynamic schedule, ensemble.hpp): whichever thread takes a
+  // member, its result is the same.
+  for (unsigned threads : {1u, 2u, 3u})
+  for (std::size_t chunk : {std::size_t(0), std::size_t(1), std::size_t(2)}) {
+    INFO("threads " << threads << ", chunk " << chunk);
     auto members = start;
-    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads});
+    const auto sums = integrate_ensemble(stepper, members, t_end, h, {.threads = threads, .chunk = chunk});
     REQUIRE(sums.size() == members.size());
     for (std::size_t i = 0; i < members.size(); ++i) {
       INFO("member " << i);
@@ -63,6 +66,13 @@ TEST_CASE("ensemble: each member is bit-identical to its single integrate run, f
       CHECK(same_summary(sums[i], single_sum[i]));
     }
   }
+}
+
+TEST_CASE("ensemble: the default chunk", "[ensemble]") {
+  CHECK(ensemble_chunk(10, 2) == 1);
+  CHECK(ensemble_chunk(1600, 2) == 50);
+  CHECK(ensemble_chunk(16384, 16) == 64);
+  CHECK(ensemble_chunk(100000, 2) == 64);
 }
 
 TEST_CASE("ensemble: per-member scenes (inertia and weight) and a composed stepper", "[ensemble]") {
@@ -164,4 +174,39 @@ TEST_CASE("ensemble: allocations do not grow with the number of steps", "[ensemb
     CHECK(short_run == long_run);
     CHECK(long_run <= 2 + 2 * static_cast<long>(threads));  // summaries, error slots, the threads
   }
+}
+
+TEST_CASE("ensemble: adaptive members (t_eval, events) are their single solve runs, bit for bit", "[ensemble]") {
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
+  const auto start = ht1_members(5);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-8;
+  const std::vector<double> t_eval{0.05, 0.1, 0.2, 0.3};
+  const std::vector<Event<double>> ev{events::by_name(ht1.scene, "nutation-max")};
+  std::vector<AdaptiveRun<double>> single;
+  for (const auto& s : start) single.push_back(solve(stepper, s, 0.3, opt, t_eval, ev, false));
+  for (unsigned threads : {1u, 2u, 3u}) {
+    INFO("threads " << threads);
+    const auto runs = solve_ensemble(stepper, start, 0.3, opt, t_eval, ev, false, {.threads = threads, .chunk = 1});
+    REQUIRE(runs.size() == start.size());
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      INFO("member " << i);
+      REQUIRE(runs[i].success());
+      REQUIRE(runs[i].states.size() == t_eval.size());
+      for (std::size_t k = 0; k < t_eval.size(); ++k) CHECK(same_bits(runs[i].states[k], single[i].states[k]));
+      REQUIRE(runs[i].events.size() == 1);
+      REQUIRE(runs[i].events[0].size() == single[i].events[0].size());
+      for (std::size_t k = 0; k < runs[i].events[0].size(); ++k) CHECK(same_bits(runs[i].events[0][k], single[i].events[0][k]));
+      CHECK(runs[i].summary.accepted == single[i].summary.accepted);
+      CHECK(runs[i].summary.rejected == single[i].summary.rejected);
+    }
+  }
+  // The members differ (the check could tell them apart), and some found nutation maxima.
+  CHECK_FALSE(same_bits(single[0].states.back(), single[1].states.back()));
+  std::size_t found = 0;
+  for (const auto& r : single) found += r.events[0].size();
+  CHECK(found > 0);
+  // A bad t_eval throws, after the members have run.
+  CHECK_THROWS_AS(solve_ensemble(stepper, start, 0.3, opt, {0.5}, ev), invalid_input);
 }

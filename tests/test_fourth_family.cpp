@@ -1,4 +1,4 @@
-// The fourth family of docs/theory.md §18: the Lie group variational integrator (LGVI,
+// The fourth family of docs/theory.md §19: the Lie group variational integrator (LGVI,
 // [V1]–[V6]), the discrete Moser–Veselov algorithm (DMV, [V7]), Runge–Kutta–Munthe-Kaas 4
 // ([V9]) and Crouch–Grossman 3 ([V10]). Orders from Δt sweeps on HT0, HT1, FB1 and an
 // asymmetric top (and, for the LGVI, its compositions to orders 4 and 6); symmetry found

@@ -88,3 +88,123 @@ TEST_CASE("long run: Simo-kappa on FB1, 1e5 steps of h = 0.01", "[long]") {
 TEST_CASE("long run: Geradin-Bauchau on FB1, 1e5 steps of h = 0.01", "[long]") {
   check_long_run<GeradinBauchau>(cases::fb1<double>(), 1e-2);
 }
+
+// ---- The compensated state (docs/theory.md §18) --------------------------------------------------
+namespace {
+
+/// Max |ΔH/H| and |Δμ/μ| of n steps of h on a Trajectory of Simo-κ (or collocation) with the
+/// compensated state on or off; measured every `every` steps and at the end.
+/// (μ is the momentum map about γ; on the free body the figure is ‖Δπ‖/‖π‖ instead, as γ·π of
+/// FB1 is a small component of π.)
+template <class Scheme, class Case>
+Figures compensated_run(const Case& c, double h, std::int64_t n, bool compensated, std::int64_t every = 1) {
+  using Scene = typename Case::SceneT;
+  Scheme scheme;
+  scheme.compensated = compensated;
+  const Stepper<Scheme, Scene> st(scheme, c.scene);
+  auto traj = st.start(c.initial);
+  const double H0 = c.scene.energy(c.initial);
+  const double mu0 = c.scene.momentum_map(c.initial);
+  const Vec3 pi0 = c.scene.spatial_momentum(c.initial);
+  Figures f;
+  for (std::int64_t i = 1; i <= n; ++i) {
+    REQUIRE(st.step(traj, h).ok());
+    if (i % every != 0 && i != n) continue;
+    f.max_dH = std::max(f.max_dH, std::abs(c.scene.energy(traj.state()) / H0 - 1));
+    const double dmu = Scene::is_free ? (c.scene.spatial_momentum(traj.state()) - pi0).norm() / pi0.norm()
+                                      : std::abs(c.scene.momentum_map(traj.state()) / mu0 - 1);
+    f.max_dmu = std::max(f.max_dmu, dmu);
+  }
+  return f;
+}
+
+constexpr double kEps = 2.220446049250313e-16;
+
+}  // namespace
+
+// HT0 over its span t = 10 in steps of 1e-5 (θ = hΩ ≈ 5e-4): the plain state's roundings
+// walk (measured 1.6e-12 in H at 10⁶ steps), the compensated one stays within a few ε:
+// what is left per step is the increment's own rounding, O(ε·θ) [K4].
+TEST_CASE("compensated state: Simo-kappa on HT0 keeps H and mu to a few eps at any step count", "[long][compensated]") {
+  const auto c = cases::ht0<double>();
+#ifdef TROMPO_SANITIZED
+  const std::int64_t n = 50'000;
+#else
+  const std::int64_t n = 1'000'000;
+#endif
+  const double h = 10.0 / static_cast<double>(n);
+  const Figures on = compensated_run<SimoKappa>(c, h, n, true, 100);
+  const Figures off = compensated_run<SimoKappa>(c, h, n, false, 100);
+  INFO(n << " steps of h = " << h << ": compensated max |dH/H| " << on.max_dH << ", |dmu/mu| " << on.max_dmu
+         << "; plain " << off.max_dH << ", " << off.max_dmu);
+  CHECK(on.max_dH <= 8 * kEps);
+  CHECK(on.max_dmu <= 16 * kEps);
+  // The check can fail: the plain state, same steps, walks far past it.
+  CHECK(off.max_dH >= 10 * on.max_dH);
+  CHECK(off.max_dmu >= 4 * on.max_dmu);
+}
+
+TEST_CASE("compensated state: collocation on HT1 and Simo-kappa on FB1", "[long][compensated]") {
+  const std::int64_t n = kSteps;
+  const Figures top = compensated_run<SimoCollocation>(cases::ht1<double>(), 1e-4, n, true, 10);
+  const Figures free_body = compensated_run<SimoKappa>(cases::fb1<double>(), 1e-3, n, true, 10);
+  INFO("HT1 collocation h = 1e-4: " << top.max_dH << ", " << top.max_dmu << "; FB1 Simo-kappa h = 1e-3: "
+                                    << free_body.max_dH << ", |dpi/pi| " << free_body.max_dmu);
+  CHECK(top.max_dH <= 16 * kEps);
+  CHECK(top.max_dmu <= 16 * kEps);
+  CHECK(free_body.max_dH <= 16 * kEps);
+  CHECK(free_body.max_dmu <= 16 * kEps);
+}
+
+TEST_CASE("compensated state: a state set by hand starts a zero residue, a failed step keeps it", "[compensated]") {
+  const auto c = cases::ht1<double>();
+  SimoKappa scheme;
+  scheme.compensated = true;
+  const Stepper<SimoKappa, cases::Top<double>> st(scheme, c.scene);
+  auto traj = st.start(c.initial);
+  for (int i = 0; i < 100; ++i) REQUIRE(st.step(traj, 1e-3).ok());
+  // The residue belongs to the state the last step produced, and is not zero.
+  REQUIRE(traj.memory.residue.belongs_to(traj.state()));
+  CHECK(traj.memory.residue.omega.norm() + traj.memory.residue.rotation.norm() > 0);
+  // A failed step (h = NaN) leaves state and residue bit for bit.
+  const auto before = traj;
+  CHECK_FALSE(st.step(traj, std::numeric_limits<double>::quiet_NaN()).ok());
+  CHECK(traj.state().omega == before.state().omega);
+  CHECK(traj.memory.residue.omega == before.memory.residue.omega);
+  CHECK(traj.memory.residue.rotation == before.memory.residue.rotation);
+  // Ω changed by hand: the residue no longer belongs to it, and the next step is the plain one.
+  traj.state().omega.x() += 1e-3;
+  CHECK_FALSE(traj.memory.residue.belongs_to(traj.state()));
+  auto plain = traj;  // the same history predictor's memory, so the same Newton iterates
+  const Stepper<SimoKappa, cases::Top<double>> st_off(SimoKappa{}, c.scene);
+  REQUIRE(st_off.step(plain, 1e-3).ok());
+  REQUIRE(st.step(traj, 1e-3).ok());
+  CHECK(traj.state().omega == plain.state().omega);
+  CHECK((traj.state().rotation.matrix() - plain.state().rotation.matrix()).norm() <= 4 * kEps);
+}
+
+// A composition hands the residue from sub-step to sub-step (composition_core.hpp): Suzuki-5
+// of compensated Simo-κ on HT0 keeps H and μ as the base scheme does.
+TEST_CASE("compensated state: carried across the sub-steps of a composition", "[long][compensated]") {
+  const auto c = cases::ht0<double>();
+  const std::int64_t n = kSteps / 5;  // 5 sub-steps each
+  const double h = 2e-5;  // θ = hΩ ≈ 1e-3: the residue, not the increments' rounding [K4], dominates
+  double max_dH[2] = {0, 0}, max_dmu[2] = {0, 0};
+  for (int on = 0; on < 2; ++on) {
+    SimoKappa scheme;
+    scheme.compensated = on == 1;
+    const ComposedStepper<SimoKappa, cases::Top<double>> st(scheme, c.scene, 4);
+    auto traj = st.start(c.initial);
+    const double H0 = c.scene.energy(c.initial), mu0 = c.scene.momentum_map(c.initial);
+    for (std::int64_t i = 0; i < n; ++i) {
+      REQUIRE(st.step(traj, h).ok());
+      max_dH[on] = std::max(max_dH[on], std::abs(c.scene.energy(traj.state()) / H0 - 1));
+      max_dmu[on] = std::max(max_dmu[on], std::abs(c.scene.momentum_map(traj.state()) / mu0 - 1));
+    }
+  }
+  INFO("Suzuki-5, " << n << " steps of h = " << h << ": plain " << max_dH[0] << ", " << max_dmu[0]
+                    << "; compensated " << max_dH[1] << ", " << max_dmu[1]);
+  CHECK(max_dH[1] <= 8 * kEps);
+  CHECK(max_dmu[1] <= 16 * kEps);
+  CHECK(max_dH[0] >= 4 * max_dH[1]);
+}

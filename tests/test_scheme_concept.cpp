@@ -30,9 +30,11 @@ static_assert(SchemeFor<MidpointQ, Top>);
 static_assert(has_memory_v<MidpointQ, Free>);
 static_assert(!has_memory_v<SimoAlpha, Free>);
 static_assert(std::is_same_v<scheme_memory_t<SimoAlpha, Top>, NoMemory>);
-// The energy-exact schemes carry their history predictor's memory, which is only a hint:
-// a plain State may still be stepped (each step from fresh memory).
-static_assert(std::is_same_v<scheme_memory_t<SimoKappa, Top>, IncrementHistory<double>>);
+// The energy-exact schemes carry their history predictor's memory and the compensated
+// state's residue (SimoMemory), which are only a hint: a plain State may still be stepped
+// (each step from fresh memory).
+static_assert(std::is_same_v<scheme_memory_t<SimoKappa, Top>, detail::SimoMemory<double>>);
+static_assert(std::is_base_of_v<IncrementHistory<double>, scheme_memory_t<SimoKappa, Top>>);
 static_assert(has_memory_v<GeradinBauchau, Free> && has_memory_v<SimoCollocation, Top>);
 static_assert(memory_is_hint_v<SimoKappa, Top> && memory_is_hint_v<SimoAlpha, Top> && !memory_is_hint_v<MidpointQ, Free>);
 static_assert(SchemeFor<SimoAlpha, Top> && SchemeFor<SimoCollocation, Top> && SchemeFor<SimoKappa, Top> &&

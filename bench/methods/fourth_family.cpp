@@ -1,4 +1,4 @@
-// The fourth family (docs/theory.md §18) in trompo-bench: the LGVI and the DMV, symmetric and
+// The fourth family (docs/theory.md §19) in trompo-bench: the LGVI and the DMV, symmetric and
 // in the registry's composable list, join the plain Δt sweep and the per-step family with the
 // other registered schemes (bench_main.cpp); here their compositions (Suzuki-5, Kahan–Li-9),
 // the explicit Lie group methods RKMK4 and Crouch–Grossman 3 (run plain: not symmetric), and

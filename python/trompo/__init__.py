@@ -1,19 +1,10 @@
 """trompo: structure-preserving integrators for rigid-body rotation, from Python.
 
-    import trompo
-    rows = trompo.simulate(case="ht1", t_end=1)          # the CLI's vocabulary
-    rows["H"][-1], rows["R"].shape                       # (n,), (n, 3, 3)
+simulate() runs one trajectory with trompo-simulate's flags as keywords (the CLI's own engine:
+its rows bit for bit, as NumPy arrays), solve_ivp() adaptive steps with SciPy's vocabulary,
+ensemble() many tops across cores, control() a spacecraft with a sampled controller in the loop.
 
-    out = trompo.ensemble(rotation, omega, case="ht1", t_end=1, threads=2)
-    out["R"][i], out["ok"][i]                            # final state of member i
-
-    sc = trompo.Spacecraft([900, 800, 600], wheels=[trompo.Wheel((1, 0, 0), 0.08)])
-    res = trompo.control(sc, trompo.initial_state(rotvec=(0.1, 0, 0)), 60, dt=0.1, period=0.1,
-                         controller=trompo.MrpPd(K=3.5, P=30))  # or f(t, R, W, wheel_speeds, memory)
-
-``simulate`` runs exactly what ``trompo-simulate`` runs with the same flags (the same
-C++ code: the parser, the checks, the dispatch), so its rows are bit-identical to the
-CLI's CSV rows. See docs/python.md.
+The API is described once, in docs/python.md of the repository.
 """
 import difflib
 import functools
@@ -150,21 +141,9 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
              **flags):
     """One trajectory, as ``trompo-simulate`` with the same flags (``t_end`` is ``--t-end``).
 
-    Returns a dict of NumPy arrays keyed like the CSV header: ``t`` (n,), ``R`` (n,3,3)
-    (Λ), ``W`` (n,3) (Ω, body), ``H`` (n,), ``mu`` (n,), ``pi`` (n,3) and ``iterations``
-    (n,), one entry per written row (every ``every``-th step, the first and the last).
-
-    Raises ValueError with the CLI's message on bad arguments, and StepFailed (carrying
-    the rows up to the last good state) when a step fails beyond recovery. Warns with
-    Recovered when sub-stepping was needed. ``inertia`` is J11,J22,J33, six numbers
-    J11,J22,J33,J12,J13,J23, or a symmetric 3×3 matrix. Any other keyword ``name=value``
-    is passed as the CLI flag ``--name`` (``_`` becomes ``-``) when the CLI has that flag
-    (its --help lists it): the CLI's own parser checks its value. A keyword that is no
-    flag is a TypeError naming it, with a "did you mean" (difflib).
-
-    A satellite (docs/spacecraft.md): ``case="sat1"`` or ``"sat2"``, or ``gravity_gradient=n``
-    (orbit rate, rad/s) with ``orbit_normal`` and ``radial`` (the radial direction at t = 0);
-    its ``H`` column is then the Jacobi integral E_J = H - n ô·π, the motion's invariant.
+    Returns a dict of NumPy arrays keyed like the CSV header (``t``, ``R``, ``W``, ``H``,
+    ``mu``, ``pi``, ``iterations``); raises ValueError with the CLI's message, StepFailed
+    when a step fails beyond recovery. docs/python.md, "trompo.simulate".
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, inertia=inertia,
                   mgl=mgl, com=com, up=up, rotation=rotation, omega=omega, dt=dt, t_end=t_end, every=every,
@@ -205,28 +184,9 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
     bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
 
-    ``t_span`` is (t0, t1): the engine's scenes are autonomous (constant torques; not the
-    satellite, whose orbit frame turns with t: t0 must be 0 there), so the run over [t0, t1]
-    is the CLI's run over [0, t1 - t0] with every time shifted by t0 (t_eval and the last
-    time reported as given); ``first_step`` is ``--dt``
-    (a case gives its own); ``control`` is "tolerance" or "reversible". ``events``: built-in
-    names ("nutation-max", "nutation-min", "axis-crossing", "flip"), objects with ``.name``
-    (one of those) and optionally ``.terminal`` (bool or count), or Python callables
-    ``g(t, y)`` as SciPy's (y as a column of ``y``), with optional ``.terminal`` and
-    ``.direction`` attributes: their zeros are located by the engine on its dense output,
-    as the built-ins' (a terminal one ends the run with a real step to the event). A
-    callable costs a Python call per sample (the step ends and three points inside each
-    step). Other keywords are simulate()'s (scheme, order, inertia, ...).
-
-    Returns an OdeResult: ``t`` (n,), ``y`` (12, n) (Λ row-major, then Ω, per column),
-    ``t_events``/``y_events`` per event, ``status`` (0 end reached, 1 terminal event, -1
-    failed), ``message``, ``success``, ``R``, ``W``, ``H``, ``mu``, ``pi``, ``iterations``
-    (per row), ``nsteps`` (accepted), ``nreject``, ``nfail``, ``niter`` (Newton iterations
-    in all); ``sol`` is None unless ``dense_output=True``: then ``sol(t)`` (t scalar or array
-    within the run's span) is the driver's Lie-Hermite dense output of this same run, (12,) or
-    (12, len(t)) as ``y``. It is evaluated by running the same engine again with ``--t-eval``
-    at the requested times (the step sequence does not depend on t_eval, so the values are
-    the interpolant of this run's steps, bit for bit the CLI's): each call costs one run.
+    Returns an OdeResult (``t``, ``y``, ``t_events``, ``y_events``, ``status``, ``sol``, ...);
+    trompo's tolerances bound the error at the end of the span. docs/python.md,
+    "trompo.solve_ivp: adaptive steps".
     """
     kwargs = dict(case=case, rtol=rtol, atol=atol, control=control, dt=first_step, **flags)
     for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
@@ -369,23 +329,10 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
              space_torque=None, rotor=None, threads=0, progress=False, **flags):
     """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
 
-    ``rotation`` is (N,3) rotation vectors (Λ0 = exp(R^), as ``--rotation``) or (N,3,3)
-    rotation matrices; ``omega`` is (N,3). Optional per-member ``mgl`` (N,) and
-    ``inertia`` (N,3) diagonal, (N,6) as ``--inertia`` or (N,3,3); everything else is
-    shared, with simulate()'s vocabulary. Member i's final state is bit-identical to the
-    last row of ``simulate`` with that member's values (a member with its own mgl is a
-    heavy top, even at mgl = 0).
-
-    Returns a dict of arrays with one entry per member: ``t``, ``R``, ``W``, ``H``,
-    ``mu``, ``pi``, ``iterations`` (the member's total Newton iterations) as simulate's
-    columns, plus ``ok`` (bool), ``status`` (list of str: "ok" or why the member stopped)
-    and ``recovered`` (intervals saved by sub-stepping). A failed member does not stop
-    the others and raises nothing: its row is its last good state. Other keywords are
-    passed on as CLI flags, as for simulate().
-
-    ``progress=True`` runs the members in about 20 batches and reports ``ensemble: k/N
-    members`` on stderr after each (a callable gets ``(k, N)`` instead); the members are
-    independent, so the results are the same bits as one batch.
+    ``rotation`` (N,3) or (N,3,3), ``omega`` (N,3), optional per-member ``mgl`` and ``inertia``;
+    the other keywords are simulate()'s. Returns a dict of arrays, one entry per member, each
+    bit-identical to its single run; a failed member raises nothing (``ok``, ``status``).
+    docs/python.md, "Python: trompo.ensemble".
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, com=com, up=up,
                   dt=dt, t_end=t_end, damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
@@ -668,24 +615,13 @@ class CommandError(ControlError, ValueError):
 
 
 def control(spacecraft, state, t_end, *, dt, period, controller, scheme="simo-kappa", order=2, every=1):
-    """Integrates ``spacecraft`` from ``state`` (initial_state(); t0 = 0) to ``t_end`` with
-    ``controller`` sampled at t_k = k * period, its commands held constant in between
-    (zero-order hold), fixed steps of ``dt`` in between landing on the samples (C++:
-    trompo::integrate_sampled with FixedSteps, on trompo-simulate's control scene).
+    """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
+    or a Python callable ``f(t, R, W, wheel_speeds, memory)`` returning a dict of commands)
+    sampled every ``period``, its commands held in between, fixed steps of ``dt``.
 
-    ``controller``: MrpPd(K, P, target) or BDot(k), run in C++ without any Python call; or a
-    Python callable ``f(t, R, W, wheel_speeds, memory)`` called at each sample only (the GIL
-    is released while C++ integrates): R (3,3) body -> space, W (3,) body rates, wheel_speeds
-    (N,) relative to the body, memory a dict kept across the run for the controller's own
-    state. It returns a dict with optional keys "wheel_torques" (N,) motor torques (N m),
-    "body_torque" (3,) body axes (N m) and "dipole" (3,) (A m^2, needs an orbit), or None
-    (no command). Commands are saturated by the wheels' and magnetorquers' limits.
-
-    Returns a ControlResult with a row at t0, every ``every``-th step and t_end. Raises
-    ValueError for bad arguments (naming the keyword); CommandError (a ValueError) for a
-    non-finite command or one the spacecraft cannot apply; ControlError chained to the
-    controller's exception if it raises; StepFailed if a step fails beyond recovery. The
-    exceptions carry the rows so far."""
+    Returns a ControlResult; raises ValueError, CommandError, ControlError or StepFailed,
+    carrying the rows so far. docs/python.md, "Control in the loop from Python".
+    """
     if not isinstance(spacecraft, Spacecraft):
         raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
     if not isinstance(state, State):

@@ -42,7 +42,7 @@ FAMILIES = (
 )
 FAMILY_TITLE = {k: t for k, t, _ in FAMILIES}
 FAMILY_COLOR = {k: c for k, _, c in FAMILIES}
-# The fourth family (docs/theory.md §18): the LGVI (plain, -o4s, -o6), the DMV, RKMK4, Crouch–Grossman 3.
+# The fourth family (docs/theory.md §19): the LGVI (plain, -o4s, -o6), the DMV, RKMK4, Crouch–Grossman 3.
 LIE_GROUP_SCHEMES = ("lgvi", "dmv", "rkmk4", "crouch-grossman")
 EM_SCHEMES = ("simo-alpha", "simo-kappa", "simo-collocation", "geradin-bauchau", "geradin-bauchau-paper")
 METHOD_TITLES = {

@@ -169,6 +169,12 @@ def section(sweep, steps):
         L.append(f"| exact::FreeBody at any t within 5 µs | FB1, Λ(t) at 1,000 times over [0, 1000] | "
                  f"{e['ns'] / 1e3:.2f} µs an evaluation (median of 3; {e['ns_min'] / 1e3:.2f}–{e['ns_max'] / 1e3:.2f}) | "
                  f"— | — | {'yes' if e['ns'] <= 5000 else 'no'} |")
+    f100 = steps.get(("fb1", "free-flow-h100"))
+    if e and f100:
+        r = f100["ns"] / e["ns"]
+        L.append(f"| one free-flow step of h = 100 within 1.5× an exact::FreeBody evaluation | FB1, Strang step of "
+                 f"h = 100 from 1,000 states | {f100['ns'] / 1e3:.2f} µs a step (median of 3) | — | {r:.2f}× | "
+                 f"{'yes' if r <= 1.5 else 'no'} |")
     for case, name in (("hta", "HTA"), ("ht2a", "HT2A")):
         for bound, need in ((1e-8, 6), (1e-10, 4)):
             add(f"fast asymmetric top ({name}, full inertia): ≥ {need}×", f"{name}, ‖ΔΛ‖ ≤ {bound:g}",

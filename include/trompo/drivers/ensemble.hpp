@@ -23,19 +23,27 @@
 // Threads. std::thread, not OpenMP: the library is header-only, and an OpenMP pragma
 // would make every program that includes it link GCC's libgomp (and build with
 // -fopenmp) or silently run serially; std::thread needs nothing beyond the C++ standard
-// library. The partition is static and deterministic: thread k takes the contiguous
-// block of members [k·N/T, (k+1)·N/T). Members of a sweep cost about the same, and the
-// result does not depend on the partition anyway (members are independent), so nothing
-// is gained by a work queue. Each member is integrated on a local copy of its state and
-// written back once at the end, so threads do not share cache lines while they step.
+// library. The schedule is dynamic: the threads take chunks of consecutive members from a
+// shared counter until none is left. Members of a sweep need not cost the same (a sweep
+// in order of spin costs more and more along the range), and a static split into T blocks
+// left threads idle: 16 threads gave 11.2× one thread on such a sweep against 11.4× on a
+// uniform ensemble, and on 2 cores 1.43× against 1.70× for the same members shuffled. A
+// member's result does not depend on which thread ran it (members are independent), so it
+// is still bit-identical to its single run. Each member is integrated on a local copy of
+// its state and written back once at the end, so threads do not share cache lines while
+// they step.
+//
+// Adaptive members: solve_ensemble runs solve() (adaptive.hpp: tolerances, t_eval, events,
+// dense output) per member on the same schedule, each result that single run's.
 //
 // Cost. The only allocations are the summaries and the threads, before any step; no
-// allocation per step (the Stepper's guarantee), no synchronisation between steps.
+// allocation per step (the Stepper's guarantee); one atomic increment per chunk.
 //
 // Bad input throws invalid_input on the calling thread before any member is stepped:
 // h zero or not finite, t_end not finite, a member's state not finite or its t_end behind
 // its start, a stepper count that is neither 1 nor the member count.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <exception>
@@ -45,6 +53,7 @@
 #include <vector>
 
 #include "trompo/errors.hpp"
+#include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/model/state.hpp"
 
@@ -57,7 +66,18 @@ struct EnsembleOptions {
   unsigned threads = 0;
   /// Each member's recovery of failed steps, as for integrate().
   IntegrateOptions integrate{};
+  /// Members a thread takes from the shared counter at a time: 0 chooses
+  /// ensemble_chunk(members, threads), about 16 chunks a thread (fewer than 64 members a
+  /// chunk), so that an uneven sweep still ends with all threads busy.
+  std::size_t chunk = 0;
 };
+
+/// The chunk integrate_ensemble takes at a time for `members` members on `threads` threads
+/// when EnsembleOptions::chunk is 0: members/(16·threads), at least 1 and at most 64.
+inline std::size_t ensemble_chunk(std::size_t members, unsigned threads) {
+  const std::size_t c = members / (16 * std::size_t(threads ? threads : 1));
+  return std::clamp<std::size_t>(c, 1, 64);
+}
 
 /// The number of threads integrate_ensemble uses for `members` members when
 /// `requested` are asked for (0: the hardware's).
@@ -69,6 +89,44 @@ inline unsigned ensemble_threads(std::size_t members, unsigned requested) {
 }
 
 namespace detail {
+
+/// Calls run(i) for every i in [0, n) on ensemble_threads(n, options.threads) threads, the
+/// members taken in chunks from a shared counter (the dynamic schedule of the file comment).
+/// What run(i) throws is rethrown on the calling thread after all have finished (the first
+/// member's in index order).
+template <class Run>
+void for_each_member(std::size_t n, const EnsembleOptions& options, Run&& run) {
+  std::vector<std::exception_ptr> errors(n);
+  const unsigned threads = ensemble_threads(n, options.threads);
+  const std::size_t chunk = options.chunk ? options.chunk : ensemble_chunk(n, threads);
+  std::atomic<std::size_t> next{0};  // the first member no thread has taken yet
+  auto work = [&] {
+    for (;;) {
+      const std::size_t begin = next.fetch_add(chunk, std::memory_order_relaxed);
+      if (begin >= n) return;
+      const std::size_t end = std::min(n, begin + chunk);
+      for (std::size_t i = begin; i < end; ++i) {
+        try {
+          run(i);
+        } catch (...) {
+          errors[i] = std::current_exception();
+        }
+      }
+    }
+  };
+  if (threads <= 1) {
+    work();
+  } else {
+    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
+    std::vector<std::jthread> pool;
+    pool.reserve(threads - 1);
+    for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
+    work();  // the calling thread works too
+    for (auto& t : pool) t.join();
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (errors[i]) std::rethrow_exception(errors[i]);
+}
 
 /// Runs member i for i in [0, n) with `stepper_of(i)`; see the file comment.
 template <class StepperOf, class States, class Scalar>
@@ -94,34 +152,11 @@ std::vector<IntegrationSummary<Scalar>> run_ensemble(std::size_t n_steppers, Ste
   }
 
   std::vector<IntegrationSummary<Scalar>> summaries(n);
-  std::vector<std::exception_ptr> errors(n);  // what integrate threw for a member (not expected after the checks)
-  auto block = [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      try {
-        auto local = states[i];  // stepped privately, written back once
-        summaries[i] = integrate(stepper_of(i), local, t_end, h, NoObserver{}, options.integrate);
-        states[i] = local;
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
-    }
-  };
-
-  const unsigned threads = ensemble_threads(n, options.threads);
-  if (threads <= 1) {
-    block(0, n);
-  } else {
-    // jthread: if starting a thread throws, the ones already started are joined on unwinding.
-    std::vector<std::jthread> pool;
-    pool.reserve(threads - 1);
-    // Thread k takes [k·n/T, (k+1)·n/T); the calling thread takes block 0.
-    for (unsigned k = 1; k < threads; ++k)
-      pool.emplace_back(block, k * n / threads, (k + 1) * n / threads);
-    block(0, n / threads);
-    for (auto& t : pool) t.join();
-  }
-  for (std::size_t i = 0; i < n; ++i)
-    if (errors[i]) std::rethrow_exception(errors[i]);
+  for_each_member(n, options, [&](std::size_t i) {
+    auto local = states[i];  // stepped privately, written back once
+    summaries[i] = integrate(stepper_of(i), local, t_end, h, NoObserver{}, options.integrate);
+    states[i] = local;
+  });
   return summaries;
 }
 
@@ -152,6 +187,27 @@ std::vector<IntegrationSummary<typename std::ranges::range_value_t<Steppers>::Sc
   return detail::run_ensemble(
       n, [&](std::size_t i) -> const std::ranges::range_value_t<Steppers>& { return steppers[i]; }, states, t_end, h,
       options);
+}
+
+/// Adaptive members, all with one stepper: member i is exactly `solve(stepper, initials[i],
+/// t_end, options, t_eval, events, dense)` (adaptive.hpp), one AdaptiveRun per member (its
+/// states at t_eval or at every accepted step, its events, its dense solution if `dense`, its
+/// summary), bit-identical to that single run whatever the threads and the chunk. Bad options
+/// throw invalid_input before any member runs; a member whose run throws (t_eval outside its
+/// span, bad events) makes the call throw once the others have finished.
+template <class StepperT>
+std::vector<AdaptiveRun<typename StepperT::Scalar>> solve_ensemble(
+    const StepperT& stepper, const std::vector<State<typename StepperT::Scalar>>& initials,
+    typename StepperT::Scalar t_end, const AdaptiveOptions<typename StepperT::Scalar>& options,
+    const std::vector<typename StepperT::Scalar>& t_eval = {},
+    const std::vector<Event<typename StepperT::Scalar>>& events = {}, bool dense = false,
+    EnsembleOptions ensemble = {}) {
+  options.validate();
+  std::vector<AdaptiveRun<typename StepperT::Scalar>> runs(initials.size());
+  detail::for_each_member(initials.size(), ensemble, [&](std::size_t i) {
+    runs[i] = solve(stepper, initials[i], t_end, options, t_eval, events, dense);
+  });
+  return runs;
 }
 
 }  // namespace trompo

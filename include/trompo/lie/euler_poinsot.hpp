@@ -15,7 +15,8 @@
 // precession angle ψ, integrated by 3-, 5- or 7-point Gauss–Legendre (by the panel's span and k²)
 // on panels |λ|h_p ≤ ½ [F6]; after
 // each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
-// dn² = m' + m cn² (chained additions are unstable next to the separatrix). The quaternion
+// dn² = m' + m cn² (chained additions are unstable next to the separatrix). A step longer
+// than the period of Π first takes out its whole periods as one rotation about π [F9]. The quaternion
 // is a product of unit factors, kept unit by a Newton step at the end (q must come in unit).
 //
 // Branches [F7]: two equal moments (|ΔJ| ≤ 8ε·max J) take the exact symmetric flow [S2];
@@ -124,8 +125,9 @@ class EulerPoinsot {
 
   /// Largest |λ|·h of one quadrature panel [F6] (7 points hold round-off up to here).
   static constexpr Scalar panel_max = Scalar(0.5);
-  /// Most panels one step may take (|λ|h ≤ 2¹⁵: about 5,000 periods of Π); a longer step is
-  /// refused as failed. Reducing h modulo the period, as exact::FreeBody does, would lift this.
+  /// Most panels one step may take after its whole periods are taken out [F9] (|λ|h ≤ 2¹⁵);
+  /// only a step next to the separatrix, whose period exceeds that, can need more, and is
+  /// refused as failed.
   static constexpr Scalar max_panels = Scalar(65536);
 
   EulerPoinsot() : EulerPoinsot(Vector3::Ones()) {}
@@ -370,6 +372,11 @@ class EulerPoinsot {
       return;
     }
     const Slots& C = slots_[ph.cfg];
+    // [F9] A step longer than the period P = 4K/|λ| of Π (|λh| ≥ 4K ≥ 2π): Π returns after
+    // each whole period and Λ turns about π by ψ_P, so the n whole periods are the rotation
+    // q ← q ⊗ r(n0, n·ψ_P) and only the remainder is integrated: a step costs at most one
+    // period's panels whatever h.
+    if (abs(ph.lambda * h) >= Scalar(6.283185307179586476925286766559L)) whole_periods(ph, Pi, q, h);
     // panels with |λ| h_p ≤ ½ [F6]
     const Scalar span = abs(ph.lambda * h) / panel_max;
     if (span > max_panels) {
@@ -421,6 +428,65 @@ class EulerPoinsot {
     detail::sin_cos(Scalar(0.5) * dpsi, sp, cp);
     const Quaternion r(cp, sp * n0.x(), sp * n0.y(), sp * n0.z());
     q = q * (r * pa);
+  }
+
+  // [F9] Takes the whole periods out of h: q turned by n·ψ_P about n0 = Π/G, h left with
+  // the remainder (|h| < P, same sign). Nothing on the separatrix (no period).
+  void whole_periods(const Phase& ph, const Vector3& Pi, Quaternion& q, Scalar& h) const {
+    using std::abs;
+    using std::floor;
+    const JacobiModulus<Scalar> ladder(ph.m, ph.mc);
+    const Scalar K = ladder.quarter_period();
+    if (!std::isfinite(K)) return;
+    const Scalar rate = abs(ph.lambda);
+    const Scalar P = Scalar(4) * K / rate;
+    const Scalar n = floor(abs(h) / P);
+    if (n < Scalar(1)) return;
+    const Scalar sign = h > Scalar(0) ? Scalar(1) : Scalar(-1);
+    // ψ_P = P·2T/G + κ ∫_P p/(G + p) dt [F6] over a whole period. The integrand, dn/(G/B1 + dn),
+    // is periodic in u with period 2K and analytic on the real axis, so the trapezoidal rule
+    // converges geometrically; by dn(2K − u) = dn(u) its nodes on [0, 2K] fold onto [0, K]:
+    //   ∫_0^{2K} f du ≈ (K/M)·(f(0) + f(K) + 2 Σ_{j=1}^{M−1} f(jK/M)),
+    // the nodes reached by the addition theorem [F5]: M = 8 by a chain of steps K/8 from
+    // u = 0, then each doubling adds the M new nodes (odd multiples of K/2M) by a chain of
+    // steps K/M from K/2M; until two sums agree to 64ε (the chains' round-off is ~Mε, and the
+    // geometric convergence puts the last sum far below the difference). The chains are not
+    // projected back onto sn² + cn² = 1 as the panels are: at most 2·32 additions each.
+    const Scalar Gb = ph.G / ph.B1;
+    const auto f = [Gb](Scalar dn) { return dn / (Gb + dn); };
+    const Scalar eps = std::numeric_limits<Scalar>::epsilon();
+    const Scalar ends = f(Scalar(1)) + f(std::sqrt(ph.mc));  // dn(0) = 1, dn(K) = k′
+    // Σ f(dn) over the `count` nodes start + i·step, i = 0 … count − 1, (sn, cn, dn)(start) = s0.
+    const auto chain = [&](JacobiValues<Scalar> s0, const JacobiValues<Scalar>& step, int count) {
+      Scalar sn = s0.sn, cn = s0.cn, dn = s0.dn, sum = f(dn);
+      for (int i = 1; i < count; ++i) {
+        Scalar ds, dc, dd;
+        add_increment(ph.m, sn, cn, dn, step, ds, dc, dd);
+        sn += ds, cn += dc, dn += dd;
+        sum += f(dn);
+      }
+      return sum;
+    };
+    int M = 8;
+    JacobiValues<Scalar> step = jacobi_sncndn(ladder, K / Scalar(M));
+    Scalar inner = chain(step, step, M - 1);  // nodes K/8 … 7K/8
+    Scalar I = (K / Scalar(M)) * (ends + Scalar(2) * inner);
+    for (int doubling = 0; doubling < 6; ++doubling) {
+      const JacobiValues<Scalar> half = jacobi_sncndn(ladder, K / Scalar(2 * M));
+      inner += chain(half, step, M);  // nodes K/2M, 3K/2M, …, (2M − 1)K/2M
+      step = half;
+      M *= 2;
+      const Scalar next = (K / Scalar(M)) * (ends + Scalar(2) * inner);
+      const bool converged = abs(next - I) <= Scalar(64) * eps * abs(next);
+      I = next;
+      if (converged) break;
+    }
+    const Scalar psi_P = P * ph.T2 * ph.iG + (ph.D1 * ph.iG * slots_[ph.cfg].iI1) * (Scalar(2) / rate) * I;
+    const Scalar half = Scalar(0.5) * sign * n * psi_P;
+    const Vector3 axis = Pi * ph.iG;  // n0, body axes
+    const Scalar sp = std::sin(half), cp = std::cos(half);
+    q = q * Quaternion(cp, sp * axis.x(), sp * axis.y(), sp * axis.z());
+    h -= sign * n * P;
   }
 
   // [S2] the symmetric free flow about axis s (detail::symmetric_free_flow).

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <limits>
 
+#include "trompo/lie/compensated.hpp"
 #include "trompo/lie/series.hpp"
 #include "trompo/errors.hpp"
 
@@ -105,6 +106,53 @@ class SO3 {
     Quaternion q;
     q.coeffs() = q_.coeffs() + increment.coeffs();
     detail::newton_unit(q, q.squaredNorm());
+    return SO3(q, NoCheck{});
+  }
+
+  /// The quaternion's coefficients as a 4-vector (Eigen's order x, y, z, w).
+  using Coefficients = Eigen::Matrix<Scalar, 4, 1>;
+
+  /// times_exp with the rounding carried (docs/theory.md §18 [K2], [K3]): the rotation is
+  /// q + lo, lo the residue the product that made it left (zero for a rotation set by
+  /// hand). The result is the rounding of the product (q + lo)·(cos θ/2, v), formed
+  /// as times_exp forms it, as an increment, and renormalised in the same carried
+  /// arithmetic; `lo` is overwritten with its residue. The unit norm is kept to O(ε²), so
+  /// the quaternion does not walk off the sphere like √N·ε over N products.
+  SO3 times_exp_carried(const Vector3& x, const detail::HalfAngle<Scalar>& c, Coefficients& lo) const {
+    const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
+    const Scalar cos_half_minus_1 = c.cos_half_minus_one(x.squaredNorm() / 4);
+    const Quaternion e_minus_1(cos_half_minus_1, v.x(), v.y(), v.z());
+    // [K2] q' = q + (lo + q(e − 1)): the bracket is small, summed first, then two_sum with q.
+    // (lo(e − 1) is O(ε·θ), below the rounding of q(e − 1) itself.)
+    const Coefficients small = lo + (q_ * e_minus_1).coeffs();
+    Coefficients hi;
+    for (int i = 0; i < 4; ++i) {
+      const detail::Carried<Scalar> s = detail::two_sum(q_.coeffs()(i), small(i));
+      hi(i) = s.hi;
+      lo(i) = s.lo;
+    }
+    // [K3] δ = |hi + lo|² − 1 to O(ε²): the squares and their sum error-free, then the
+    // Newton step for 1/|q| (detail::newton_unit) applied to hi + lo, its rounding carried.
+    detail::Carried<Scalar> norm2 = detail::two_square(hi(0));
+    Scalar err = norm2.lo + Scalar(2) * hi.dot(lo);
+    for (int i = 1; i < 4; ++i) {
+      const detail::Carried<Scalar> sq = detail::two_square(hi(i));
+      const detail::Carried<Scalar> sum = detail::two_sum(norm2.hi, sq.hi);
+      norm2.hi = sum.hi;
+      err += sum.lo + sq.lo;
+    }
+    const Scalar half_delta = ((norm2.hi - Scalar(1)) + err) / Scalar(2);  // norm2.hi − 1 exact (Sterbenz)
+    for (int i = 0; i < 4; ++i) {
+      const detail::Carried<Scalar> s = detail::two_sum(hi(i), lo(i) - half_delta * hi(i));
+      hi(i) = s.hi;
+      lo(i) = s.lo;
+    }
+    if (hi(3) < Scalar(0)) {  // the canonical sign, for both parts
+      hi = -hi;
+      lo = -lo;
+    }
+    Quaternion q;
+    q.coeffs() = hi;
     return SO3(q, NoCheck{});
   }
 

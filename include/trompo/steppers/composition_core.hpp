@@ -75,12 +75,26 @@ class CompositionCore {
     StepReport<Scalar> total;
     for (std::size_t k = 0; k < n; ++k) {
       before(k);
-      total.absorb(base_.step(s, memory_of(k), weight(k) * h));
+      // The compensated state's residue (docs/theory.md §18) belongs to the state, not to a
+      // sub-step index: each sub-step starts from the one the sub-step before it left
+      // (the first from the last sub-step of the previous step).
+      if constexpr (requires(BaseMemory& m) { m.residue; })
+        memory_of(k).residue = memory_of((k + n - 1) % n).residue;
+      // With wheels the last sub-step ends at t_end itself (see integrate.hpp, attempt()): a
+      // time set afterwards would move h_w(t) outside any step.
+      const Scalar dt = wheels && k + 1 == n ? t_end - s.time : weight(k) * h;
+      total.absorb(base_.step(s, memory_of(k), dt));
       if (!total.ok()) return total;
     }
     s.time = t_end;
     return total;
   }
+
+  /// Whether the scene has reaction wheels (their momentum h_w(t) is read at the state's time).
+  static constexpr bool wheels = [] {
+    if constexpr (requires { Scene::has_wheels; }) return Scene::has_wheels;
+    else return false;
+  }();
 
   Base base_;
 };

@@ -1,6 +1,6 @@
 #pragma once
 // The right-hand side of the explicit Lie group Runge–Kutta methods (RKMK4, Crouch–Grossman),
-// docs/theory.md §18 [V8]: the rigid body as a differential equation on SO(3) × R³,
+// docs/theory.md §19 [V8]: the rigid body as a differential equation on SO(3) × R³,
 //   Λ̇ = Λ Ω̂,   J Ω̇ = Π × Ω + τ(Λ, Ω, t),   Π = JΩ + h_r,
 // the first written in the right-trivialised form the Lie group methods integrate by
 // exponentials, the second as a vector equation.

@@ -1,6 +1,6 @@
 #pragma once
 // The Crouch–Grossman method of order 3 (Crouch & Grossman 1993; the coefficients of Owren &
-// Marthinsen 1999), docs/theory.md §18 [V10]: an explicit Runge–Kutta method whose stages
+// Marthinsen 1999), docs/theory.md §19 [V10]: an explicit Runge–Kutta method whose stages
 // move the attitude by products of exponentials of the frozen body velocities,
 //   Λ_2 = Λ_n exp(h a21 Ω̂_1),   Λ_3 = Λ_n exp(h a31 Ω̂_1) exp(h a32 Ω̂_2),
 //   Λ_{n+1} = Λ_n exp(h b1 Ω̂_1) exp(h b2 Ω̂_2) exp(h b3 Ω̂_3),                           [V10]

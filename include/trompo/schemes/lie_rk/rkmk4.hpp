@@ -1,5 +1,5 @@
 #pragma once
-// Runge–Kutta–Munthe-Kaas of order 4 (Munthe-Kaas 1998), docs/theory.md §18 [V9]: the
+// Runge–Kutta–Munthe-Kaas of order 4 (Munthe-Kaas 1998), docs/theory.md §19 [V9]: the
 // classical RK4 tableau applied, within one step, to the local coordinates Θ of
 // Λ(t) = Λ_n exp(Θ̂(t)) and to Ω, which obey
 //   Θ̇ = T(Θ)⁻¹ Ω,   Ω̇ = J⁻¹(Π × Ω + τ(Λ_n exp(Θ̂), Ω, t)),   Θ(t_n) = 0           [V9]

@@ -26,6 +26,7 @@
 #include "trompo/schemes/history.hpp"
 #include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/scheme.hpp"
+#include "trompo/schemes/state_residue.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
@@ -464,8 +465,9 @@ class SimoProblem {
   using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
-  SimoProblem(double alpha, const StepData<Scene>& d, const State<Scalar>& in)
-      : alpha_(alpha), d_(d), in_(in), base_(d.h * in.omega) {}
+  /// `residue`: the compensated state's residue at the start (null: not compensated).
+  SimoProblem(double alpha, const StepData<Scene>& d, const State<Scalar>& in, const StateResidue<Scalar>* residue)
+      : alpha_(alpha), d_(d), in_(in), base_(d.h * in.omega), residue_(residue) {}
 
   /// [T1] and [T3] (a fresh one per solve: collocation's general α follows its iterates).
   SimoResidual<V, Scene> residual() const { return SimoResidual<V, Scene>(alpha_, d_); }
@@ -483,15 +485,22 @@ class SimoProblem {
   Scalar orientation(const Matrix3& K) const { return K.determinant() * d_.h; }
   /// The same from K⁻¹ (det K⁻¹ has the sign of det K).
   Scalar orientation_inverse(const Matrix3& K_inv) const { return K_inv.determinant() * d_.h; }
-  /// (9)–(10) from the root y.
+  /// (9)–(10) from the root y; compensated, the residue of the result goes to next_residue().
   void advance(const Vector3& y, State<Scalar>& out) const {
     const Scalar h = d_.h;
     const Vector3 Theta = base_ + y;
+    const HalfAngle<Scalar> c = half_angle_from_squared(Theta.squaredNorm());
+    if (residue_) {
+      residue_->advance(in_, Scalar(2) * y / h, Theta, c, h, out, next_residue_);  // (9)–(10), [K2]–[K3]
+      return;
+    }
     // Λ_{n+1} = Λ_n exp(Θ̂), with no square root or division on the way (SO3::times_exp).
-    out.rotation = in_.rotation.times_exp(Theta, half_angle_from_squared(Theta.squaredNorm()));
+    out.rotation = in_.rotation.times_exp(Theta, c);
     out.omega = in_.omega + Scalar(2) * y / h;                // Ω_{n+1} = 2Θ/h − Ω_n  (9)
     out.time = in_.time + h;
   }
+  /// The residue of advance()'s result (compensated steps only).
+  const StateResidue<Scalar>& next_residue() const { return next_residue_; }
   /// The history records Θ.
   Vector3 recorded(const Vector3& y) const { return base_ + y; }
 
@@ -502,6 +511,15 @@ class SimoProblem {
   const StepData<Scene>& d_;
   const State<Scalar>& in_;
   Vector3 base_;  ///< hΩ_n
+  const StateResidue<Scalar>* residue_;  ///< the start's residue (null: not compensated)
+  mutable StateResidue<Scalar> next_residue_;  ///< the result's, written by advance()
+};
+
+/// The per-trajectory memory of Simo-κ and collocation: the history predictor's
+/// increments and tangent, and the compensated state's residue (docs/theory.md §18).
+template <class Scalar>
+struct SimoMemory : IncrementHistory<Scalar> {
+  StateResidue<Scalar> residue;  ///< what rounding left out of the state (compensated steps)
 };
 
 /// One step of a Simo scheme: Newton on [T1] from the predictor, then (9)–(10), by the
@@ -509,14 +527,16 @@ class SimoProblem {
 /// for none) the predictor is the extrapolation of the last increments and the first
 /// tangent the carried one, when the history allows (IncrementHistory, [P1]–[P3]); if that
 /// solve fails, the step is solved once more from the memoryless start before it reports
-/// failure. On success the accepted Θ is recorded.
+/// failure. On success the accepted Θ is recorded. With `residue` (null: none) the state is
+/// compensated (docs/theory.md §18) and, on success, the residue of `out` replaces it.
 template <SimoVariant V, class Scene>
 StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
                                              const State<typename Scene::Scalar>& in,
                                              typename Scene::Scalar h,
                                              const NewtonOptions<typename Scene::Scalar>& opt,
                                              State<typename Scene::Scalar>& out,
-                                             IncrementHistory<typename Scene::Scalar>* history = nullptr) {
+                                             IncrementHistory<typename Scene::Scalar>* history = nullptr,
+                                             StateResidue<typename Scene::Scalar>* residue = nullptr) {
   using Scalar = typename Scene::Scalar;
   const StepData<Scene> d(scene, in, h);
   // The numerically projected α or κ of a general potential is resolved only to a
@@ -525,7 +545,10 @@ StepReport<typename Scene::Scalar> simo_step(double alpha, const Scene& scene,
   // them): plain Newton for those.
   NewtonOptions<Scalar> options = opt;
   if constexpr (SimoResidual<V, Scene>::general_projection) options.reuse_tangent = Scalar(0);
-  return implicit_step(SimoProblem<V, Scene>(alpha, d, in), options, h, out, history);
+  const SimoProblem<V, Scene> problem(alpha, d, in, residue);
+  const StepReport<Scalar> rep = implicit_step(problem, options, h, out, history);
+  if (rep.ok() && residue) *residue = problem.next_residue();  // written on success only
+  return rep;
 }
 
 }  // namespace detail

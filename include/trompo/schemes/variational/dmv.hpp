@@ -1,6 +1,6 @@
 #pragma once
 // The discrete Moser–Veselov algorithm (Moser & Veselov 1991) for the free rigid body,
-// docs/theory.md §18 [V7], in the quaternion form of Hairer & Vilmart (2006): with
+// docs/theory.md §19 [V7], in the quaternion form of Hairer & Vilmart (2006): with
 // F = exp(Θ̂) written as the unit quaternion (e₀, e), e₀ = cos(θ/2), e = sin(θ/2) Θ/θ,
 // the implicit equation of the step, h Π̂_n = F J_d − J_d Fᵀ (J_d = ½ tr(J) I − J), reads
 //   2 e₀ J e + 2 e × J e = h Π_n,   e₀ = √(1 − |e|²)                                 [V7]

@@ -1,6 +1,6 @@
 #pragma once
 // The Lie group variational integrator (LGVI) of Lee, Leok & McClamroch (2005, 2007),
-// docs/theory.md §18 [V1]–[V6]: the discrete Hamilton principle on SO(3) with the
+// docs/theory.md §19 [V1]–[V6]: the discrete Hamilton principle on SO(3) with the
 // discrete Lagrangian
 //   L_d(Λ_n, Λ_{n+1}) = (1/h) tr[(I − F_n) J_d] − (h/2)(V(Λ_n) + V(Λ_{n+1})),
 //   F_n = Λ_nᵀ Λ_{n+1},  J_d = ½ tr(J) I − J                                          [V1]

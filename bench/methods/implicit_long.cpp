@@ -48,6 +48,8 @@ void register_long_sweeps() {
     register_sweep(*p, GeradinBauchau{}, Composition::kahan_li17, o8);
     // The processed order-6 method (Blanes–Casas–Murua, 13-step kernel).
     register_processed_sweep(*p, SimoKappa{}, Grid{4e-2, 1e-2});
+    // The symplectic LGVI (docs/theory.md §19) beside them: H bounded, not exact, at t = 1000.
+    register_sweep(*p, LGVI{}, Composition::base, p->o2);
 #if TROMPO_IMPLICIT_LONG_EXPLICIT
     register_sweep_rk4(*p);
 #endif

@@ -48,6 +48,12 @@ CASES = [
      dict(case="ht1", composition="kahan-li-17", dt=0.02, t_end=1)),
     (["--case", "ht1", "--composition", "blanes-casas-murua-13", "--dt", "0.02", "--t-end", "1"],
      dict(case="ht1", composition="blanes-casas-murua-13", dt=0.02, t_end=1)),
+    # the fourth family (docs/theory.md §18): the LGVI composed, the DMV, the explicit Lie group methods
+    (["--case", "ht1", "--scheme", "lgvi", "--order", "4", "--dt", "0.01", "--t-end", "0.5"],
+     dict(case="ht1", scheme="lgvi", order=4, dt=0.01, t_end=0.5)),
+    (["--case", "fb1", "--scheme", "dmv", "--t-end", "2"], dict(case="fb1", scheme="dmv", t_end=2)),
+    (["--case", "ht2", "--scheme", "rkmk4", "--t-end", "0.05"], dict(case="ht2", scheme="rkmk4", t_end=0.05)),
+    (["--case", "ht1", "--scheme", "crouch-grossman", "--t-end", "0.5"], dict(case="ht1", scheme="crouch-grossman", t_end=0.5)),
     # a satellite (docs/spacecraft.md): the preset and its flags
     (["--case", "sat1", "--scheme", "splitting", "--composition", "chin-4a", "--t-end", "600", "--every", "50"],
      dict(case="sat1", scheme="splitting", composition="chin-4a", t_end=600, every=50)),

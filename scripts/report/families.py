@@ -36,11 +36,14 @@ FAMILIES = (
     ("constrained", "constrained trapezoid (enforced energy)", "#2ca02c"),
     ("energy-decaying", "energy-decaying, μ exact", "#9467bd"),
     ("splitting", "spin-exact splitting (explicit; μ, π exact)", "#ff7f0e"),
+    ("lie-group", "Lie group variational (LGVI, DMV; μ, π exact) and Lie group RK (RKMK4, CG3)", "#17becf"),
     ("explicit", "explicit baselines (RK4, odeint)", "#555555"),
     ("other", "other methods", "#bcbd22"),
 )
 FAMILY_TITLE = {k: t for k, t, _ in FAMILIES}
 FAMILY_COLOR = {k: c for k, _, c in FAMILIES}
+# The fourth family (docs/theory.md §19): the LGVI (plain, -o4s, -o6), the DMV, RKMK4, Crouch–Grossman 3.
+LIE_GROUP_SCHEMES = ("lgvi", "dmv", "rkmk4", "crouch-grossman")
 EM_SCHEMES = ("simo-alpha", "simo-kappa", "simo-collocation", "geradin-bauchau", "geradin-bauchau-paper")
 METHOD_TITLES = {
     "lie-gen-alpha-r1": "gen-α ρ∞ = 1 (= trapezoid)",
@@ -66,6 +69,8 @@ def family_of(method):
         return "explicit"
     if method.startswith("splitting"):
         return "splitting"
+    if method.split("-o")[0] in LIE_GROUP_SCHEMES:
+        return "lie-group"
     base = method
     for v in ("-o4s", "-o4", "-o6", "-o8m", "-o8", "-p6"):
         if base.endswith(v):
@@ -149,7 +154,7 @@ def plot_family(report_dir, sweep, fam, style=None):
 
 def plot_invariants(report_dir, sweep):
     """max |ΔH/H| and max |Δμ/μ| against h for the new families (HT0, HT1, HT2)."""
-    new = ("gen-alpha", "constrained", "energy-decaying")
+    new = ("gen-alpha", "constrained", "energy-decaying", "lie-group")
     methods = sorted({r["method"] for r in sweep if family_of(r["method"]) in new})
     if not methods:
         return False
@@ -276,7 +281,7 @@ def large_table(large):
 def write(report_dir, sweep, steps):
     """Everything of this module; returns the markdown (also written to families.md)."""
     plot_envelopes(report_dir, sweep)
-    for fam in ("gen-alpha", "constrained", "energy-decaying", "other"):
+    for fam in ("gen-alpha", "constrained", "energy-decaying", "lie-group", "other"):
         plot_family(report_dir, sweep, fam)
     plot_invariants(report_dir, sweep)
     large = load_large(report_dir)

@@ -127,6 +127,24 @@ check "lie-gen-alpha: runs, R00(1) near the closed form (0.96475)" '[ $rc -eq 0 
 "$sim" --case ht1 --scheme lie-gen-alpha --damping 1 --t-end 0.1 >"$tmp/gad.csv"; rc=$?
 check "lie-gen-alpha with effects" '[ $rc -eq 0 ]'
 
+# ---- the fourth family (docs/theory.md §18) ---------------------------------------------
+"$sim" --case ht1 --scheme lgvi --t-end 1 --every 10 >"$tmp/lgvi.csv"; rc=$?
+check "lgvi: mu exact, H bounded (1e-6)" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; m=\$15} NR>2{d=(\$14-h)/h; e=\$15-m; if(d<0)d=-d; if(e<0)e=-e; if(d>1e-6||e>1e-12) bad=1} END{exit bad}" "$tmp/lgvi.csv"'
+"$sim" --case fb1 --scheme lgvi --order 4 --dt 0.05 --t-end 10 --every 10 >"$tmp/lgvi4.csv"; rc=$?
+check "lgvi --order 4 (Suzuki-5 of a symmetric scheme): H and pi3 exact on the free body" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14; p=\$18} NR>2{d=(\$14-h)/h; e=\$18-p; if(d<0)d=-d; if(e<0)e=-e; if(d>1e-12||e>1e-12) bad=1} END{exit bad}" "$tmp/lgvi4.csv"'
+"$sim" --case fb1 --scheme dmv --t-end 1 --every 10 >"$tmp/dmv.csv"; rc=$?
+check "dmv: runs on the free body, H exact" '[ $rc -eq 0 ] && awk -F, "NR==2{h=\$14} NR>2{d=(\$14-h)/h; if(d<0)d=-d; if(d>1e-12) bad=1} END{exit bad}" "$tmp/dmv.csv"'
+for s in rkmk4 crouch-grossman; do
+  "$sim" --case ht1 --scheme $s --t-end 1 >"$tmp/$s.csv"; rc=$?
+  check "$s: runs, R00(1) near the closed form (0.96475)" '[ $rc -eq 0 ] && awk -F, "END{d=\$2-0.96475241867653013; if(d<0)d=-d; exit !(d<1e-3)}" "$tmp/$s.csv"'
+done
+"$sim" --case ht1 --scheme lgvi --damping 1 --rotor 0,0,0.5 --t-end 0.1 >"$tmp/lgvie.csv"; rc=$?
+check "lgvi with effects (damping, rotor)" '[ $rc -eq 0 ]'
+for bad in "--case ht1 --scheme dmv" "--case fb1 --scheme dmv --rotor 0,0,1" "--case ht1 --scheme rkmk4 --order 4"; do
+  "$sim" $bad >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+  check "exit 2, no rows, one-line reason: $bad" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ]'
+done
+
 # ---- bad input a new user tries (issue 18, item 7): exit 2 naming the field, no rows ----
 for bad in "--case ht1 --damping -1:--damping: negative coefficient -1" \
            "--case ht1 --omega 1e200,0,0:--omega: the initial energy H is not finite" \

@@ -34,9 +34,13 @@
 #include "trompo/schemes/families/lie_gen_alpha.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau.hpp"
 #include "trompo/schemes/geradin_bauchau/geradin_bauchau_paper.hpp"
+#include "trompo/schemes/lie_rk/crouch_grossman.hpp"
+#include "trompo/schemes/lie_rk/rkmk4.hpp"
 #include "trompo/schemes/scheme.hpp"
 #include "trompo/schemes/simo/simo.hpp"
 #include "trompo/schemes/splitting/splitting.hpp"
+#include "trompo/schemes/variational/dmv.hpp"
+#include "trompo/schemes/variational/lgvi.hpp"
 #ifdef TROMPO_EXTRA_SCHEMES_HEADER
 #include TROMPO_EXTRA_SCHEMES_HEADER
 #endif
@@ -109,7 +113,11 @@ using RegisteredSchemes = SchemeList<
     Registered<Splitting, Compositions::own>,
     Registered<LieGenAlpha>,
     Registered<ConstrainedTrapezoid, Compositions::none, Scenes::conservative>,
-    Registered<EnergyDecaying, Compositions::none, Scenes::heavy_top>
+    Registered<EnergyDecaying, Compositions::none, Scenes::heavy_top>,
+    Registered<LGVI>,
+    Registered<DMV, Compositions::symmetric, Scenes::free_body>,
+    Registered<RKMK4>,
+    Registered<CrouchGrossman3>
     TROMPO_EXTRA_SCHEMES>;
 // clang-format on
 

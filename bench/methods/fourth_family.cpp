@@ -27,14 +27,14 @@ void explicit_sweeps(const Problem<SceneT>& p) {
 }
 
 template <class SceneT>
-void sweeps_of(const Problem<SceneT>& p) {
+void fourth_family_sweeps_of(const Problem<SceneT>& p) {
   register_sweep(p, LGVI{}, Composition::suzuki5, p.o4s);
   register_sweep(p, LGVI{}, Composition::kahan_li9, p.o6);
   explicit_sweeps(p);
 }
 
 template <class SceneT>
-void steps_of(const Problem<SceneT>& p) {
+void fourth_family_steps_of(const Problem<SceneT>& p) {
   register_step(p, LGVI{}, Composition::suzuki5);
   register_step_with(p, "rkmk4", RKMK4::name, [](const SceneT& scene) { return Stepper<RKMK4, SceneT>(RKMK4{}, scene); });
   register_step_with(p, "crouch-grossman", CrouchGrossman3::name,
@@ -43,13 +43,13 @@ void steps_of(const Problem<SceneT>& p) {
 }
 
 void register_fourth_sweeps() {
-  for (const auto& p : tops) sweeps_of(p);
-  for (const auto& p : frees) sweeps_of(p);
+  for (const auto& p : tops) fourth_family_sweeps_of(p);
+  for (const auto& p : frees) fourth_family_sweeps_of(p);
 }
 
 void register_fourth_steps() {
-  for (const auto& p : tops) steps_of(p);
-  for (const auto& p : frees) steps_of(p);
+  for (const auto& p : tops) fourth_family_steps_of(p);
+  for (const auto& p : frees) fourth_family_steps_of(p);
 }
 
 }  // namespace

@@ -11,7 +11,9 @@
 //    it was; h = 0 or non-finite is invalid_step;
 //  - integrate either throws invalid_input before stepping, or returns a summary: ok and
 //    state.time == t_end exactly, or a failure with the state finite at the summary's
-//    time, between the start and t_end.
+//    time, between the start and t_end (integrate_sampled likewise);
+//  - the adaptive driver (solve: tolerances, t_eval, events, dense output) either throws
+//    invalid_input or returns outputs that keep its contract (exercise_adaptive).
 //
 // The input is read as a stream of decisions (scheme, scene, inertia, loads, state, h,
 // steps). Short inputs are padded with zeros, so every byte string is a valid input.
@@ -27,6 +29,7 @@
 #include <sstream>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "trompo/trompo.hpp"
 
@@ -82,6 +85,16 @@ inline long& reached_stepper() {
   return n;
 }
 
+/// Inputs whose adaptive run solve() took (not refused as invalid input), and of those the
+/// runs that ended at t_end, at a terminal event, or failed (statistics for the corpus test).
+struct AdaptiveCounts {
+  long solved = 0, reached_end = 0, event = 0, failed = 0;
+};
+inline AdaptiveCounts& adaptive_counts() {
+  static AdaptiveCounts n;
+  return n;
+}
+
 template <class Scalar>
 bool same_bits(const trompo::State<Scalar>& a, const trompo::State<Scalar>& b) {
   return std::memcmp(a.omega.data(), b.omega.data(), sizeof(Scalar) * 3) == 0 &&
@@ -94,15 +107,317 @@ inline bool finite_state(const trompo::State<double>& s) {
   return s.omega.allFinite() && s.rotation.unit_quaternion().coeffs().allFinite() && std::isfinite(s.time);
 }
 
-/// The decoded run: steps (or an integrate call) of one stepper from one state.
+// ---- the adaptive driver (include/trompo/drivers/adaptive.hpp) ---------------------------
+inline bool unit_rotation(const trompo::State<double>& s) {
+  return std::abs(s.rotation.unit_quaternion().norm() - 1.0) <= 1e-12;
+}
+
+/// Whether t lies in the closed span between a and b (either order).
+inline bool within(double t, double a, double b) { return t >= std::min(a, b) && t <= std::max(a, b); }
+
+/// The adaptive driver on stepper `st` from `s`: options (tolerances from 1e-300 to 1e10,
+/// raw doubles when wild; either step control; every estimate; a bounded max_steps), a
+/// t_eval grid, up to two events (a component of Ω crossing a level, the body axis crossing
+/// a plane; terminal or not) and dense-output queries, drawn from the input, through solve()
+/// (integrate_adaptive with its observer and event sink). Contract:
+///  - solve throws invalid_input (bad options, t_eval, events) or returns a summary whose
+///    time lies in the span; reached_end: at t_end exactly; a failed run (status failed)
+///    leaves finite states, the last at the summary's time;
+///  - every output state and accepted node is finite with a unit quaternion; without t_eval
+///    the states are the start and every accepted step, monotone in time;
+///  - t_eval states are at the requested times, in order, all those the run reached; event
+///    states lie in the run's span, in order; a terminal event ends the run at the last
+///    occurrence of an event with `terminal` set;
+///  - the dense solution runs from t0 to the summary's time through monotone nodes; at a
+///    node time it is that node, each step's interpolant meets its two nodes to round-off,
+///    a query anywhere in the span is finite and at that time, and one outside is refused.
+/// The processed composition does not adapt (exercise() integrates it instead); the work
+/// per input is bounded by max_steps ≤ 48 attempts.
 template <class St>
+std::string exercise_adaptive(const St& st, const trompo::State<double>& s0, Reader& in, bool wild, double h) {
+  using namespace trompo;
+  std::ostringstream why;
+  why.precision(17);
+  AdaptiveOptions<double> opt;
+  const auto tolerance = [&](bool zero_ok) {
+    switch (in.choose(8)) {
+      case 5: return in.magnitude(-300, -13, false, false);  // below ε: the 8ε noise floor
+      case 6: return in.magnitude(0, 10, false, false);      // nothing to resolve
+      case 7: return wild ? in.raw() : (zero_ok ? 0.0 : in.magnitude(-16, -1, false, false));
+      default: return in.magnitude(-12, -2, false, false);
+    }
+  };
+  opt.rtol = tolerance(false);
+  opt.atol = tolerance(true);
+  const std::uint8_t how = in.byte();
+  opt.control = (how & 3) == 3 ? StepControl::reversible : StepControl::tolerance;
+  opt.estimate = static_cast<ErrorEstimate>((how >> 2) & 3);
+  if (how & 0x10) {  // Richardson's m where the estimate takes one; 1 in 16 anything (invalid)
+    const std::uint8_t sub = in.byte();
+    if (sub % 16 == 0) opt.substeps = sub / 16;
+    else if (opt.estimate == ErrorEstimate::automatic || opt.estimate == ErrorEstimate::richardson)
+      opt.substeps = 2 + sub % 15;
+    else if (opt.estimate == ErrorEstimate::doubling)
+      opt.substeps = 2;
+  }
+  opt.tolerance_over_span = !(how & 0x20);
+  opt.quintic = !(how & 0x40);
+  opt.hold_invariants = !(how & 0x80);
+  const std::uint8_t more = in.byte();
+  if (more & 1) opt.first_step = std::abs(h);
+  if (more & 2) opt.max_step = in.magnitude(-6, 1, wild, false);
+  if (more & 4) opt.max_rotation = 4.5 * in.unit();  // (0, 4] valid
+  if (more & 8) opt.epsilon = in.magnitude(-8, 0, wild, false);
+  if (more & 16) opt.omega_floor = in.magnitude(-8, 2, wild, false);
+  // Bounded work per input: at most 48 attempts (each up to 17 steps of a composition).
+  opt.max_steps = 1 + static_cast<std::int64_t>(in.choose(48));
+
+  const double t0 = s0.time;
+  const double span = std::abs(h) * static_cast<double>(1 + in.choose(32)) * (more & 32 ? -1.0 : 1.0);
+  const double t_end = in.byte() == 7 ? in.raw() : t0 + span;
+  const bool forward = t_end >= t0;
+
+  // t_eval: fractions of the span in the run's order (t0 and t_end themselves possible);
+  // 1 in 8 shuffled or outside, which solve must refuse.
+  std::vector<double> t_eval;
+  const unsigned n_eval = in.choose(6);
+  for (unsigned i = 0; i < n_eval; ++i) {
+    const std::uint8_t b = in.byte();
+    t_eval.push_back(b == 0 ? t0 : b == 255 ? t_end : t0 + (t_end - t0) * (b / 255.0));
+  }
+  const bool bad_order = (in.byte() % 8) == 0;
+  if (!bad_order) {
+    std::sort(t_eval.begin(), t_eval.end());
+    t_eval.erase(std::unique(t_eval.begin(), t_eval.end()), t_eval.end());
+    if (!forward) std::reverse(t_eval.begin(), t_eval.end());
+  }
+
+  // Events: a component of Ω crossing a level near Ω0's, or the body axis crossing a plane.
+  std::vector<Event<double>> events;
+  const unsigned n_events = in.choose(3);
+  for (unsigned i = 0; i < n_events; ++i) {
+    const std::uint8_t b = in.byte();
+    const int direction = static_cast<int>(b % 3) - 1;
+    const int terminal = static_cast<int>((b >> 2) % 3);
+    if (b & 0x80) {
+      events.push_back(events::axis_crossing<double>(in.vector(-2, 0, wild), in.vector(-2, 0, wild), direction, terminal));
+    } else {
+      const int k = static_cast<int>(in.choose(3));
+      const double level = s0.omega(k) * (2.0 * in.unit() - 1.0) * 1.5;
+      Event<double> e;
+      e.name = "omega-level";
+      e.g = [k, level](double, const SO3<double>&, const Vec3& w) { return w(k) - level; };
+      e.direction = (b & 0x40) && wild ? 2 : direction;  // 2: invalid
+      e.terminal = terminal;
+      events.push_back(e);
+    }
+  }
+
+  const std::uint8_t entry = in.byte();
+  // solve: t_eval states, events and the dense solution
+  const bool dense = (entry & 4) == 0;
+  AdaptiveRun<double> run;
+  try {
+    run = solve(st, s0, t_end, opt, t_eval, events, dense);
+  } catch (const invalid_input& e) {
+#ifdef TROMPO_FUZZ_DEBUG
+    std::fprintf(stderr, "adaptive refused: %s\n", e.what());
+#endif
+    // invalid_input is for bad input, found before any step: inputs that pass these checks
+    // must give a summary (a step failure inside the run must not throw).
+    bool valid = std::isfinite(t_end);
+    try {
+      opt.validate();
+      s0.validate();
+    } catch (const invalid_input&) {
+      valid = false;
+    }
+    for (std::size_t i = 0; i < t_eval.size(); ++i)
+      valid = valid && std::isfinite(t_eval[i]) && within(t_eval[i], t0, t_end) &&
+              (i == 0 || (forward ? t_eval[i] > t_eval[i - 1] : t_eval[i] < t_eval[i - 1]));
+    for (const Event<double>& ev : events) valid = valid && ev.direction >= -1 && ev.direction <= 1 && ev.terminal >= 0;
+    valid = valid && !(opt.estimate == ErrorEstimate::defect && st.order() > 6);
+    const bool pilot = opt.control == StepControl::reversible && opt.epsilon == 0;  // may find no step: refused
+    if (valid && !pilot) {
+      why << "solve threw invalid_input on inputs that validate (inside the run?): " << e.what();
+      return why.str();
+    }
+    return {};
+  }
+  if (bad_order) {
+    // solve took it: then the grid must have been valid after all
+    for (std::size_t i = 0; i < t_eval.size(); ++i)
+      if (!within(t_eval[i], t0, t_end) || (i > 0 && !(forward ? t_eval[i] > t_eval[i - 1] : t_eval[i] < t_eval[i - 1])))
+        return "solve: accepted an unsorted or out-of-span t_eval";
+  }
+  const AdaptiveSummary<double>& sum = run.summary;
+  const double t_run = sum.time;
+#ifdef TROMPO_FUZZ_DEBUG
+  std::fprintf(stderr, "adaptive: rtol %.3g atol %.3g control %d estimate %d m %d max_steps %lld; t0 %.17g t_end %.17g; "
+               "%zu t_eval, %zu events, dense %d: %s at t = %.17g, %lld accepted, %zu nodes\n",
+               opt.rtol, opt.atol, static_cast<int>(opt.control), static_cast<int>(opt.estimate), opt.substeps,
+               static_cast<long long>(opt.max_steps), t0, t_end, t_eval.size(), events.size(), int(dense), sum.message(),
+               t_run, static_cast<long long>(sum.accepted), run.solution.nodes().size());
+  for (std::size_t k = 0; k < events.size(); ++k)
+    for (const State<double>& x : run.events[k])
+      std::fprintf(stderr, "  event %zu (%s, direction %d, terminal %d) at t = %.17g\n", k, events[k].name.c_str(),
+                   events[k].direction, events[k].terminal, x.time);
+  std::fprintf(stderr, "  quintic %d hold %d\n", int(opt.quintic), int(opt.hold_invariants));
+  for (const auto& n : run.solution.nodes())
+    std::fprintf(stderr, "  node t = %.17g omega (%.17g %.17g %.17g) dot (%.6g %.6g %.6g) ddot (%.6g %.6g %.6g) second %d\n",
+                 n.state.time, n.state.omega.x(), n.state.omega.y(), n.state.omega.z(), n.omega_dot.x(), n.omega_dot.y(),
+                 n.omega_dot.z(), n.omega_ddot.x(), n.omega_ddot.y(), n.omega_ddot.z(), int(n.second));
+#endif
+  AdaptiveCounts& counts = adaptive_counts();
+  ++counts.solved;
+  ++(sum.status == AdaptiveStatus::reached_end ? counts.reached_end
+     : sum.status == AdaptiveStatus::event     ? counts.event
+                                               : counts.failed);
+  if (!within(t_run, t0, t_end)) {
+    why << "solve: summary time " << t_run << " outside [" << t0 << ", " << t_end << "]";
+    return why.str();
+  }
+  if (sum.status == AdaptiveStatus::reached_end && !(t_run == t_end)) {
+    why << "solve: reached_end at t = " << t_run << " != t_end = " << t_end;
+    return why.str();
+  }
+  for (const State<double>& x : run.states)
+    if (!finite_state(x) || !unit_rotation(x)) {
+      why << "solve: output state not finite or |q| != 1 at t = " << x.time << " (" << sum.message() << ")";
+      return why.str();
+    }
+  if (t_eval.empty()) {  // every accepted step: from t0, monotone, ending at the summary's time
+    if (run.states.empty() || !(run.states.front().time == t0)) return "solve: no initial state in the output";
+    for (std::size_t i = 1; i < run.states.size(); ++i)
+      if (!(forward ? run.states[i].time > run.states[i - 1].time : run.states[i].time < run.states[i - 1].time)) {
+        why << "solve: output times not monotone at " << i << ": " << run.states[i - 1].time << ", " << run.states[i].time;
+        return why.str();
+      }
+    if (!(run.states.back().time == t_run)) {
+      why << "solve: last output at t = " << run.states.back().time << ", summary at " << t_run << " (" << sum.message() << ")";
+      return why.str();
+    }
+  } else {  // the requested times, in order, all those the run reached
+    std::size_t reached = 0;
+    for (double t : t_eval)
+      if (within(t, t0, t_run)) ++reached;
+    if (run.states.size() != reached) {
+      why << "solve: " << run.states.size() << " t_eval states for " << reached << " requested times reached (run to "
+          << t_run << ", " << sum.message() << ")";
+      return why.str();
+    }
+    for (std::size_t i = 0; i < run.states.size(); ++i)
+      if (!(run.states[i].time == t_eval[i])) {
+        why << "solve: t_eval state " << i << " at t = " << run.states[i].time << ", asked " << t_eval[i];
+        return why.str();
+      }
+  }
+  bool ended_here = false;
+  // A terminal event within a few ulp of t after a step's start (the driver's too_small: 4ε
+  // of max(|t0|, |t_end|)) ends the run at that start; events of the same step found before
+  // it may lie that far beyond the run's end (found by the fuzzer: 3.6e-129 past t = 0).
+  const double slack = 4 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t0), std::abs(t_end));
+  const double t_reach = forward ? t_run + slack : t_run - slack;
+  for (std::size_t k = 0; k < run.events.size(); ++k) {
+    const std::vector<State<double>>& occ = run.events[k];
+    for (std::size_t i = 0; i < occ.size(); ++i) {
+      if (!finite_state(occ[i]) || !within(occ[i].time, t0, t_reach)) {
+        why << "solve: event " << k << " at t = " << occ[i].time << " outside the run [" << t0 << ", " << t_run
+            << "] or not finite";
+        return why.str();
+      }
+      if (i > 0 && (forward ? occ[i].time < occ[i - 1].time : occ[i].time > occ[i - 1].time)) {
+        why << "solve: event " << k << " occurrences out of order: " << occ[i - 1].time << ", " << occ[i].time;
+        return why.str();
+      }
+    }
+    if (events[k].terminal > 0 && !occ.empty() && occ.back().time == t_run) ended_here = true;
+  }
+  if (sum.status == AdaptiveStatus::event && !ended_here) {
+    why << "solve: status event at t = " << t_run << " with no terminal occurrence there";
+    return why.str();
+  }
+  if (!dense) return {};
+  const auto& nodes = run.solution.nodes();
+  if (nodes.empty() || !(nodes.front().state.time == t0)) return "solve: the dense solution does not start at t0";
+  if (!(nodes.back().state.time == t_run)) {
+    why << "solve: the dense solution ends at " << nodes.back().state.time << ", the run at " << t_run;
+    return why.str();
+  }
+  try {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const State<double>& n = nodes[i].state;
+      if (!finite_state(n) || !unit_rotation(n)) return "solve: a dense node is not finite or |q| != 1";
+      if (i > 0 && !(forward ? n.time > nodes[i - 1].state.time : n.time < nodes[i - 1].state.time)) {
+        why << "solve: dense nodes not monotone at " << i << ": " << nodes[i - 1].state.time << ", " << n.time;
+        return why.str();
+      }
+      if (!same_bits(run.solution(n.time), n)) {
+        why << "solve: solution(" << n.time << ") is not the node there";
+        return why.str();
+      }
+      if (i == 0) continue;
+      // The interpolant of step i−1 → i at its ends, by its polynomial: the nodes, to
+      // round-off (the rotation through log and exp, Ω through the Hermite basis).
+      const LieHermite<double> seg(nodes[i - 1], nodes[i], opt.quintic);
+      for (double theta : {0.0, 1.0}) {
+        Vec3 xi, w;
+        seg.algebra(theta, xi, w);
+        const State<double>& end = theta == 0.0 ? nodes[i - 1].state : n;
+        const double dq = (seg.rotation_at(xi).matrix() - end.rotation.matrix()).norm();
+        const double dw = (w - end.omega).norm();
+        const double scale_w = 64 * std::numeric_limits<double>::epsilon() *
+                               (nodes[i - 1].state.omega.norm() + n.omega.norm() +
+                                std::abs(seg.step()) * (nodes[i - 1].omega_dot.norm() + nodes[i].omega_dot.norm()));
+        const double scale_q = 64 * std::numeric_limits<double>::epsilon() * (1 + seg.phi().norm());
+        if (!(dq <= scale_q) || !(dw <= scale_w + std::numeric_limits<double>::denorm_min())) {
+          why << "solve: interpolant of step " << i << " at theta = " << theta << " misses the node by |dR| = " << dq
+              << " (bound " << scale_q << "), |dW| = " << dw << " (bound " << scale_w << ")";
+          return why.str();
+        }
+      }
+    }
+    // Queries anywhere in the span: finite, unit, at the time asked; outside: refused.
+    for (int i = 0; i < 3; ++i) {
+      const double t = t0 + (t_run - t0) * in.unit();
+      if (!within(t, t0, t_run)) continue;
+      const State<double> x = run.solution(t);
+      if (!finite_state(x) || !unit_rotation(x) || !(x.time == t)) {
+        why << "solve: solution(" << t << ") gave t = " << x.time << ", finite " << finite_state(x);
+        return why.str();
+      }
+    }
+  } catch (const invalid_input& e) {
+    why << "solve: a dense query inside the span threw: " << e.what();
+    return why.str();
+  }
+  const double outside = forward ? t_run + std::max(1.0, std::abs(t_run)) : t_run - std::max(1.0, std::abs(t_run));
+  try {
+    (void)run.solution(outside);
+    if (std::isfinite(outside) && !(outside == t_run)) return "solve: a dense query outside the span was answered";
+  } catch (const invalid_input&) {
+  }
+  return {};
+}
+
+/// The decoded run: steps (or an integrate call, or the adaptive driver where `Adaptive`)
+/// of one stepper from one state.
+template <bool Adaptive, class St>
 std::string exercise(const St& st, trompo::State<double> s, Reader& in, bool wild) {
   using namespace trompo;
   std::ostringstream why;
   why.precision(17);
   ++reached_stepper();
   const double h = in.byte() == 0 ? 0.0 : in.magnitude(-8, 0.5, wild);
-  const unsigned mode = in.choose(4);
+  const std::uint8_t mode_byte = in.byte();
+  const unsigned mode = mode_byte % 4;
+  // Half the integrate inputs (bit 2 of the same byte, so that the older corpus's other
+  // inputs decode as before) run the adaptive driver instead, on the steppers that adapt
+  // here (with_entry: one kind per scheme and scene, which keeps the target's compile time).
+  if constexpr (Adaptive) {
+    static_assert(!trompo::detail::is_processed<typename St::base_type>(), "the processed composition does not adapt");
+    if (mode == 3 && (mode_byte & 4)) return exercise_adaptive(static_cast<const typename St::base_type&>(st), s, in, wild, h);
+  }
   if (mode < 3) {  // plain steps
     const int n = 1 + static_cast<int>(in.choose(8));
     for (int i = 0; i < n; ++i) {
@@ -196,6 +511,8 @@ std::string exercise(const St& st, trompo::State<double> s, Reader& in, bool wil
 /// real Trajectory (start()), and so exercises a ProcessedStepper's deferred output.
 template <class Base>
 struct StateStepper : Base {
+  /// The wrapped stepper (the adaptive driver gets it as it is).
+  using base_type = Base;
   using Base::Base;
   using Base::step;
   mutable typename Base::TrajectoryType traj{};
@@ -243,14 +560,16 @@ std::string with_entry(const Scene& scene, const trompo::State<double>& s, Reade
   if constexpr (Entry::compositions == Compositions::symmetric) {
     if (how == 1) {
       const auto method = static_cast<Composition>(in.choose(6));
-      return exercise(StateStepper<ComposedStepper<S, Scene>>(scheme, scene, method, opt), s, in, wild);
+      return exercise<true>(StateStepper<ComposedStepper<S, Scene>>(scheme, scene, method, opt), s, in, wild);
     }
-    if (how == 2) return exercise(StateStepper<ProcessedStepper<S, Scene>>(scheme, scene, opt), s, in, wild);
+    if (how == 2) return exercise<false>(StateStepper<ProcessedStepper<S, Scene>>(scheme, scene, opt), s, in, wild);
   }
   if constexpr (std::is_same_v<S, Splitting> && detail::splitting_effects_of<Scene>::conservative) {
-    if (how == 1) return exercise(StateStepper<Stepper<SplittingProjected, Scene>>(SplittingProjected(scheme.method), scene, opt), s, in, wild);
+    if (how == 1) return exercise<false>(StateStepper<Stepper<SplittingProjected, Scene>>(SplittingProjected(scheme.method), scene, opt), s, in, wild);
   }
-  return exercise(StateStepper<Stepper<S, Scene>>(scheme, scene, opt), s, in, wild);
+  // The adaptive driver on the plain stepper where the scheme does not compose here (the
+  // composed one, whose compositions include the base step, covers the others).
+  return exercise<Entry::compositions != Compositions::symmetric>(StateStepper<Stepper<S, Scene>>(scheme, scene, opt), s, in, wild);
 }
 
 /// The sampled driver on a control scene: a controller of drawn (possibly wild) commands

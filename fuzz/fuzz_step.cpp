@@ -1,5 +1,6 @@
-// libFuzzer target: the step contract of fuzz/fuzz_check.hpp on fuzzer-drawn scenes,
-// states and h. Built and run (bounded) by scripts/fuzz.sh:
+// libFuzzer target: the contract of fuzz/fuzz_check.hpp (steps, integrate, the sampled and
+// the adaptive drivers) on fuzzer-drawn scenes, states and h. Built and run (bounded) by
+// scripts/fuzz.sh:
 //   clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined ... fuzz/fuzz_step.cpp
 // Any violation prints what broke and aborts, so libFuzzer saves the input as a crash.
 #include <cstdint>

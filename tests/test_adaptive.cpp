@@ -660,6 +660,68 @@ TEST_CASE("events: a terminal event ends the run with a real step, t_eval and so
   CHECK_THROWS_AS(run.solution(end.time + 1e-3), invalid_input);
 }
 
+TEST_CASE("events: a terminal event at the start ends the run there, with no step of zero length", "[adaptive][events]") {
+  // Found by the fuzzer (fuzz/fuzz_check.hpp): an event within a few ulp of t after a
+  // step's start is too close for a real step, so the run ends at that node; the observer
+  // was then called with a "step" from the node to itself (h = 0, whose interpolant divides
+  // by h), and solve's dense solution held the start twice.
+  const auto c = cases::ht1();
+  ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 2);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-8;
+  Event<double> e;
+  e.name = "just-after-start";
+  e.g = [](double t, const SO3<double>&, const V3&) { return t - 1e-17; };  // below 4 eps of t_end = 1
+  e.terminal = 1;
+  const std::vector<Event<double>> ev{e};
+  State<double> s = c.initial;
+  int zero_steps = 0, calls = 0;
+  auto obs = [&](const DenseNode<double>& a, const DenseNode<double>& b) {
+    ++calls;
+    if (b.state.time == a.state.time) ++zero_steps;
+  };
+  const auto sum = integrate_adaptive(stepper, s, 1.0, opt, obs, &ev);
+  CHECK(sum.status == AdaptiveStatus::event);
+  CHECK(sum.time == 0.0);
+  CHECK(s.time == 0.0);
+  CHECK(zero_steps == 0);
+  CHECK(calls == 0);
+  const AdaptiveRun<double> run = solve(stepper, c.initial, 1.0, opt, {}, ev);
+  REQUIRE(run.summary.status == AdaptiveStatus::event);
+  REQUIRE(run.events[0].size() == 1);
+  CHECK(run.events[0][0].time == 0.0);
+  REQUIRE(run.solution.nodes().size() == 1);  // the start, once
+  CHECK(run.solution(0.0).time == 0.0);
+  CHECK(run.states.size() == 1);
+}
+
+TEST_CASE("adaptive: a finite state whose rates overflow fails the run, it neither throws nor interpolates NaN", "[adaptive]") {
+  // Found by the fuzzer: a finite state whose Ω̈ (or Ω̇) overflows has no dense output (the
+  // interpolant was NaN between finite nodes), and in reversible mode its step density
+  // overflowed to h = 0, whose recovery threw invalid_input from inside the run. Here
+  // |Ω| = 1e110 on FB1's body: Ω̇ ~ 1e218 is finite, Ω̈ ~ 1e328 is not, Ω·Ω̇ neither.
+  const auto c = cases::fb1();
+  const Stepper<RK4, Free> stepper(RK4{}, c.scene);
+  State<double> s = c.initial;
+  s.omega = V3(1e110, 2e108, 3e108);
+  for (StepControl control : {StepControl::tolerance, StepControl::reversible}) {
+    AdaptiveOptions<double> opt;
+    opt.control = control;
+    opt.estimate = ErrorEstimate::richardson;
+    opt.epsilon = 0.01;
+    opt.first_step = 1e-113;  // h|Ω| = 1e-3: the first attempt is accepted, and its nodes checked
+    opt.max_steps = 50;
+    INFO((control == StepControl::tolerance ? "tolerance" : "reversible"));
+    AdaptiveRun<double> run;
+    REQUIRE_NOTHROW(run = solve(stepper, s, 1e-108, opt));
+    CHECK(run.summary.status == AdaptiveStatus::failed);
+    CHECK(run.summary.failure == StepStatus::non_finite);
+    CHECK(run.summary.time == 0.0);
+    for (const DenseNode<double>& n : run.solution.nodes()) CHECK(n.state.omega.allFinite());
+    CHECK(run.solution(0.0).omega.allFinite());
+  }
+}
+
 TEST_CASE("adaptive: backward runs", "[adaptive]") {
   const auto c = cases::ht1();
   ComposedStepper<SimoKappa, Top> stepper(SimoKappa{}, c.scene, 4);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -33,6 +34,7 @@ TEST_CASE("fuzz corpus: every kept input satisfies the step contract", "[fuzz][r
   std::sort(files.begin(), files.end());
   REQUIRE(files.size() >= 50);
   int broken = 0;
+  const trompo_fuzz::AdaptiveCounts before = trompo_fuzz::adaptive_counts();
   for (const fs::path& file : files) {
     std::ifstream in(file, std::ios::binary);
     const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -43,6 +45,18 @@ TEST_CASE("fuzz corpus: every kept input satisfies the step contract", "[fuzz][r
     }
   }
   CHECK(broken == 0);
+  // The corpus reaches the adaptive driver (fuzz_check.hpp, exercise_adaptive; random bytes
+  // rarely get that deep), and its runs end every way: at t_end, at a terminal event, and
+  // failed (max_steps reached, a step that cannot be taken).
+  const trompo_fuzz::AdaptiveCounts& a = trompo_fuzz::adaptive_counts();
+  const long solved = a.solved - before.solved, ended = a.reached_end - before.reached_end,
+             events = a.event - before.event, failed = a.failed - before.failed;
+  std::printf("fuzz corpus: %zu inputs, %ld adaptive runs (reached t_end %ld, terminal event %ld, failed %ld)\n",
+              files.size(), solved, ended, events, failed);
+  INFO(solved << " adaptive runs: reached t_end " << ended << ", terminal event " << events << ", failed " << failed);
+  CHECK(ended > 0);
+  CHECK(events > 0);
+  CHECK(failed > 0);
 }
 
 TEST_CASE("fuzz contract on fixed-seed random inputs", "[fuzz][robustness]") {

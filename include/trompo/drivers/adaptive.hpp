@@ -778,6 +778,17 @@ struct AdaptiveLoop {
       add_second_rate(stepper.scene(), node_a);
       add_second_rate(stepper.scene(), node_b);
     }
+    // A finite state whose Ω̇ or Ω̈ overflows (|Ω| near 1e110, or a step without error
+    // control gone far astray) has no interpolant: the step is not committed and the run
+    // fails as non-finite, at the last node whose rates were finite (found by the fuzzer).
+    if (!rates_finite(node_a) || !rates_finite(node_b)) {
+      if (stepped_in_place) static_cast<State<Scalar>&>(traj) = start_state;
+      have_node_a = false;
+      --sum.accepted;
+      sum.status = AdaptiveStatus::failed;
+      sum.failure = StepStatus::non_finite;
+      return false;
+    }
     const DenseNode<Scalar>& a = node_a;
     const DenseNode<Scalar>& b = node_b;
     const LieHermite<Scalar> seg = node_b_ready && !held_now && attempt_segment.quintic() == opt.quintic
@@ -807,8 +818,12 @@ struct AdaptiveLoop {
           if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
           continue;
         }
-        const DenseNode<Scalar> e = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real));
-        if constexpr (observed) notify(a, e);
+        // An event within a few ulp of t of the step's start (no step to take) ends the run
+        // at that node, which the observer has seen: no step of zero length is reported
+        // (its interpolant would divide by h = 0).
+        if constexpr (observed) {
+          if (real.time != a.state.time) notify(a, dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real)));
+        }
         if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, static_cast<const State<Scalar>&>(real), true);
         traj = real;
         have_node_a = false;
@@ -825,6 +840,11 @@ struct AdaptiveLoop {
     node_a = node_b;
     have_node_a = true;
     return true;
+  }
+
+  /// Whether a node's rates (Ω̇, and Ω̈ where the quintic needs it) are finite.
+  bool rates_finite(const DenseNode<Scalar>& n) const {
+    return detail::all_finite(n.omega_dot) && (!opt.quintic || detail::all_finite(n.omega_ddot));
   }
 
   /// Whether a step from t of size h lands on (or beyond) t_end: then it is shortened.
@@ -973,6 +993,15 @@ struct AdaptiveLoop {
       }
       bool last = false;
       const Scalar h = clip(dir * epsilon / std::max(rho, rho_floor), last);
+      if (too_small(h) && !last) {
+        // ρ overflowed (Ω·Ω̇ beyond the range) or is NaN, or h fell below a few ulp of t:
+        // a step of h = 0 would throw in the recovery below, one below ulp(t) would not
+        // advance t. The run fails where it is.
+        sum.status = AdaptiveStatus::failed;
+        sum.failure = StepStatus::non_finite;
+        sum.time = traj.time;
+        return;
+      }
       const Scalar t_next = last ? t_end : traj.time + h;
       assign(next, traj);
       StepReport<Scalar> r = stepper.step(next, h);

@@ -208,6 +208,10 @@ void CommandLine::declare(Config& c) {
         });
   flag("--energy-projection", "splitting: project H back after each step (keeps pi)",
        [&c] { c.energy_projection = true; });
+  flag("--compensated",
+       "simo-kappa, simo-collocation: carry the state's rounding residue, H and mu to a few eps over any "
+       "number of steps (3-16 % a step; docs/theory.md section 18)",
+       [&c] { c.compensated = true; });
   // ---- families (docs/families.md) ----
   value("--rho-inf", "R", "lie-gen-alpha only: spectral radius at infinity in [0, 1] (default 0.8)",
         [&c](const std::string& v) { c.rho_inf = parse_number("--rho-inf", v); });
@@ -398,8 +402,9 @@ void CommandLine::declare(Config& c) {
 
 /// The checks across flags, after each flag's own (exit 2 naming the flag).
 void check_flags(Config& c, const Flags& flags) {
+  // --compensated asks for Simo-κ's residue: no pick then (the default scheme stays).
   if (c.adaptive.on && !flags.count("--scheme") && !flags.count("--order") && !flags.count("--composition") &&
-      !c.control.on() && c.ensemble.empty())  // (both refuse --rtol, below)
+      !flags.count("--compensated") && !c.control.on() && c.ensemble.empty())  // (both refuse --rtol, below)
     pick_adaptive_method(c, flags.count("--control") || flags.count("--tol-scope") || flags.count("--estimate") ||
                                 flags.count("--substeps"));  // the tolerance control's own flags
   // The scheme name before any check of a per-scheme flag (--alpha, --rho-inf, …): those
@@ -419,6 +424,9 @@ void check_flags(Config& c, const Flags& flags) {
     throw invalid_input("--damping: negative coefficient " + flags.at("--damping") +
                         " feeds energy in; give --allow-negative-damping to run it anyway");
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
+  if (c.compensated && c.scheme != "simo-kappa" && c.scheme != "simo-collocation")
+    throw invalid_input("--compensated: only with --scheme simo-kappa or simo-collocation (the schemes whose "
+                        "memory carries the state's residue), got " + c.scheme);
   // ---- satellite: its own scene (gravity gradient only) ----
   if (!c.gravity_gradient && (flags.count("--orbit-normal") || flags.count("--radial")))
     throw invalid_input(std::string(flags.count("--orbit-normal") ? "--orbit-normal" : "--radial") +
@@ -520,7 +528,7 @@ Config parse_flags(const std::map<std::string, std::string>& flags) {
   // it as it parses the CLI's.
   // A switch is given with an empty value; with another, parse_args refuses it. --event:
   // its occurrences joined by ';', as parse_args joins the CLI's.
-  static const std::set<std::string> switches = {"--energy-projection", "--allow-negative-damping"};
+  static const std::set<std::string> switches = {"--energy-projection", "--allow-negative-damping", "--compensated"};
   std::vector<std::string> args;
   for (const auto& [flag, value] : flags) args.push_back(switches.count(flag) && value.empty() ? flag : flag + "=" + value);
   Config c;

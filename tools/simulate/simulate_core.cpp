@@ -365,6 +365,16 @@ template <class S>
 S make_scheme(std::type_identity<S>, const Config&) {
   return S{};
 }
+inline trompo::SimoKappa make_scheme(std::type_identity<trompo::SimoKappa>, const Config& c) {
+  trompo::SimoKappa s;
+  s.compensated = c.compensated;  // --compensated
+  return s;
+}
+inline trompo::SimoCollocation make_scheme(std::type_identity<trompo::SimoCollocation>, const Config& c) {
+  trompo::SimoCollocation s;
+  s.compensated = c.compensated;  // --compensated
+  return s;
+}
 inline trompo::SimoAlpha make_scheme(std::type_identity<trompo::SimoAlpha>, const Config& c) {
   return trompo::SimoAlpha(c.alpha.value_or(0.5));  // --alpha
 }

@@ -155,6 +155,7 @@ struct Config {
   // ---- splitting (--scheme splitting) ----
   std::optional<std::string> composition_name;  ///< --composition as given (splitting names too)
   bool energy_projection = false;               ///< --energy-projection
+  bool compensated = false;                     ///< --compensated (simo-kappa, simo-collocation)
   // ---- families (docs/families.md) ----
   std::optional<double> rho_inf;            ///< --rho-inf (lie-gen-alpha)
   std::optional<double> chi;                ///< --chi (energy-decaying)

@@ -235,3 +235,16 @@ def test_satellite_reports_the_jacobi_integral():
     EJ = 0.5 * np.einsum("ki,ki->k", W, W @ J) + 1.5 * n * n * np.einsum("ki,ki->k", c, c @ J) - n * pi[:, 2]
     assert np.allclose(rows["H"], EJ, rtol=1e-13, atol=0)
     assert np.max(np.abs(rows["H"] - rows["H"][0])) < 1e-11
+
+
+def test_compensated_state_keeps_h_and_mu_to_a_few_eps():
+    # compensated=True is --compensated (docs/theory.md §18): 2·10^5 Simo-κ steps of HT0.
+    # Measured: 2.2e-16 and 4.4e-16 with it, 3.6e-14 and 3.0e-14 without.
+    drift = {}
+    for on in (False, True):
+        r = trompo.simulate(case="ht0", scheme="simo-kappa", compensated=on, dt=1e-5, t_end=2, every=1000)
+        drift[on] = max(np.max(np.abs(r["H"] / r["H"][0] - 1)), np.max(np.abs(r["mu"] / r["mu"][0] - 1)))
+    assert drift[True] <= 4 * np.finfo(float).eps
+    assert drift[False] >= 10 * drift[True]
+    with pytest.raises(ValueError, match="--compensated: only with --scheme simo-kappa"):
+        trompo.simulate(case="ht1", scheme="rk4", compensated=True, t_end=0.1)

@@ -466,7 +466,7 @@ class SimoProblem {
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
   /// `residue`: the compensated state's residue at the start (null: not compensated).
-  SimoProblem(double alpha, const StepData<Scene>& d, const State<Scalar>& in, const StateResidue<Scalar>* residue)
+  SimoProblem(double alpha, const StepData<Scene>& d, const State<Scalar>& in, const StateResidue<Scalar>* residue = nullptr)
       : alpha_(alpha), d_(d), in_(in), base_(d.h * in.omega), residue_(residue) {}
 
   /// [T1] and [T3] (a fresh one per solve: collocation's general α follows its iterates).

@@ -82,7 +82,7 @@ class CompositionCore {
         memory_of(k).residue = memory_of((k + n - 1) % n).residue;
       // With wheels the last sub-step ends at t_end itself (see integrate.hpp, attempt()): a
       // time set afterwards would move h_w(t) outside any step.
-      const Scalar dt = wheels && k + 1 == n ? t_end - s.time : weight(k) * h;
+      const Scalar dt = Scene::has_wheels && k + 1 == n ? t_end - s.time : weight(k) * h;
       total.absorb(base_.step(s, memory_of(k), dt));
       if (!total.ok()) return total;
     }
@@ -90,11 +90,6 @@ class CompositionCore {
     return total;
   }
 
-  /// Whether the scene has reaction wheels (their momentum h_w(t) is read at the state's time).
-  static constexpr bool wheels = [] {
-    if constexpr (requires { Scene::has_wheels; }) return Scene::has_wheels;
-    else return false;
-  }();
 
   Base base_;
 };

@@ -298,36 +298,33 @@ struct SplittingScheme {
                   "splitting: the energy projection [S12] needs a conservative scene (potentials and rotors "
                   "only): with applied torques or damping there is no conserved H to project on");
     using Scalar = typename Scene::Scalar;
-    if (memory.ready) return step_in_frame(scene, memory.frame, in, h, out, memory.energy, false, &memory);
+    if (memory.ready) return step_in_frame(scene, memory.frame, in, h, out, memory.energy, false, memory);
     // A fresh memory: the frame is built here and committed with a successful step only
     // (writes_memory_on_success); afterwards every step reads it in place.
     const bool no_s_or_a = is_chin(method) || is_near_integrable(method) || (!Effects::has_kick && !Effects::has_damping);
     const detail::SplittingFrame<Scalar> f = detail::SplittingFrame<Scalar>::of(scene, no_s_or_a);
     Scalar H0 = Scalar(0);
-    detail::SplitState<Scalar> end;
-    const StepReport<Scalar> rep = step_in_frame(scene, f, in, h, out, H0, true, nullptr, &end);
+    // (step_in_frame keeps the working state in `memory` on success only; fresh memory
+    // carries none, so the step converts its input.)
+    const StepReport<Scalar> rep = step_in_frame(scene, f, in, h, out, H0, true, memory);
     if (rep.ok()) {
       memory.frame = f;
       memory.energy = H0;
       memory.ready = true;
-      memory.keep(end, out);
     }
     return rep;
   }
 
  private:
   /// The step in the working frame f; H0 is the trajectory's first energy, computed here
-  /// when `fresh` (the energy projection aims at it). With `memory` (null on a fresh one) the
-  /// step resumes from its working state when `in` is its last output, and keeps its own on
-  /// success [S14]; `end` (if given) receives the working state at the end.
+  /// when `fresh` (the energy projection aims at it). The step resumes from the working state
+  /// in `memory` when `in` is its last output, and keeps its own there on success [S14].
   template <class Scene>
   StepReport<typename Scene::Scalar> step_in_frame(const Scene& scene,
                                                    const detail::SplittingFrame<typename Scene::Scalar>& f,
                                                    const State<typename Scene::Scalar>& in, typename Scene::Scalar h,
                                                    State<typename Scene::Scalar>& out, typename Scene::Scalar& H0,
-                                                   bool fresh,
-                                                   detail::SplittingMemory<typename Scene::Scalar>* memory = nullptr,
-                                                   detail::SplitState<typename Scene::Scalar>* end = nullptr) const {
+                                                   bool fresh, detail::SplittingMemory<typename Scene::Scalar>& memory) const {
     using Effects = detail::splitting_effects_of<Scene>;
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -342,9 +339,9 @@ struct SplittingScheme {
     }
 
     detail::SplitState<Scalar> x;
-    if (memory && memory->resumes(in, Scene::has_wheels)) {
+    if (memory.resumes(in, Scene::has_wheels)) {
       // [S14] the last step's own working state: no round trip through the frame.
-      x = memory->working;
+      x = memory.working;
       x.t = in.time;
     } else {
       // To the working frame: Λ_w = Λ Q, Ω_w = Qᵀ Ω, Π_w = J Ω_w + h_r.
@@ -419,8 +416,7 @@ struct SplittingScheme {
       rep.status = StepStatus::non_finite;
       return rep;
     }
-    if (memory) memory->keep(x, out);
-    if (end) *end = x;
+    memory.keep(x, out);
     return rep;
   }
 

@@ -20,6 +20,9 @@ using namespace trompo_simulate;
 
 namespace {
 
+/// A C-contiguous array of doubles (converted from any array-like).
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
 /// Rows as columns of doubles, turned into NumPy arrays without a copy at the end.
 class ArraySink : public RowSink {
  public:
@@ -71,14 +74,23 @@ py::dict rows_of(ArraySink& s) {
   return d;
 }
 
-Config config_of(const std::map<std::string, std::string>& flags) {
+/// The flags parsed (not yet validated); invalid_input as ValueError.
+Config parse_config(const std::map<std::string, std::string>& flags) {
   try {
-    Config c = parse_flags(flags);
-    validate(c);
-    return c;
+    return parse_flags(flags);
   } catch (const invalid_input& e) {
     throw py::value_error(e.what());
   }
+}
+
+Config config_of(const std::map<std::string, std::string>& flags) {
+  Config c = parse_config(flags);
+  try {
+    validate(c);
+  } catch (const invalid_input& e) {
+    throw py::value_error(e.what());
+  }
+  return c;
 }
 
 /// An event function of Python, g(t, y) with y = (Λ row-major, Ω) as solve_ivp's columns,
@@ -116,15 +128,114 @@ trompo::Event<double> python_event(const py::handle& item) {
   return e;
 }
 
+/// A Python torque law raised (its exception is kept by simulate_flags): ends the run.
+struct LawRaised {};
+
+/// (Λ, Ω) as NumPy arrays (3, 3) and (3,), for a call into Python (the GIL held).
+std::pair<py::array_t<double>, py::array_t<double>> arrays_of(const M3& Lambda, const V3& omega) {
+  py::array_t<double> R({3, 3});
+  py::array_t<double> W(3);
+  double* r = R.mutable_data();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r[3 * i + j] = Lambda(i, j);
+  for (int i = 0; i < 3; ++i) W.mutable_data()[i] = omega(i);
+  return {R, W};
+}
+
+/// A trompo.TorqueLaw's callables as the engine's CodeTorque: tau(t, R, W) -> 3 numbers and,
+/// optionally, jacobian(t, R, W) -> (D_w, D_Omega), two 3x3 arrays. Each call takes the GIL
+/// (the engine runs without it). The callables are held by pointer (the caller keeps them
+/// alive for the run). An exception (or a value of the wrong shape) is kept in `raised` and
+/// ends the run; simulate_flags raises it again with its traceback.
+CodeTorque python_torque_law(const py::handle& torque, const py::handle& jacobian, py::object* raised) {
+  CodeTorque law;
+  if (torque.is_none()) return law;
+  PyObject* fn = torque.ptr();
+  auto keep = [raised](py::error_already_set& e) {
+    *raised = e.value();
+    if (e.trace()) PyException_SetTraceback(raised->ptr(), e.trace().ptr());
+  };
+  auto keep_value_error = [raised](const std::string& what) {
+    *raised = py::reinterpret_steal<py::object>(PyObject_CallFunction(PyExc_ValueError, "s", what.c_str()));
+  };
+  law.torque = [fn, keep, keep_value_error](double t, const M3& Lambda, const V3& omega) -> V3 {
+    py::gil_scoped_acquire gil;
+    try {
+      auto [R, W] = arrays_of(Lambda, omega);
+      const Array tau = py::cast<Array>(py::reinterpret_borrow<py::object>(fn)(t, R, W));
+      if (tau.size() != 3 || tau.ndim() != 1)
+        throw py::value_error("TorqueLaw: the law must return 3 numbers, got shape (" + std::to_string(tau.size()) + ",)");
+      return V3(tau.data()[0], tau.data()[1], tau.data()[2]);
+    } catch (py::error_already_set& e) {
+      keep(e);
+    } catch (const py::cast_error&) {
+      keep_value_error("TorqueLaw: the law must return 3 numbers");
+    } catch (const py::builtin_exception& e) {
+      keep_value_error(e.what());
+    }
+    throw LawRaised{};
+  };
+  if (jacobian.is_none()) return law;
+  PyObject* jac = jacobian.ptr();
+  law.jacobians = [jac, keep, keep_value_error](double t, const M3& Lambda, const V3& omega, M3& D_w, M3& D_v) {
+    py::gil_scoped_acquire gil;
+    try {
+      auto [R, W] = arrays_of(Lambda, omega);
+      const py::tuple out = py::cast<py::tuple>(py::reinterpret_borrow<py::object>(jac)(t, R, W));
+      if (out.size() != 2) throw py::value_error("TorqueLaw: the jacobian must return (D_w, D_Omega)");
+      const Array a = py::cast<Array>(out[0]), b = py::cast<Array>(out[1]);
+      if (!(a.ndim() == 2 && a.shape(0) == 3 && a.shape(1) == 3 && b.ndim() == 2 && b.shape(0) == 3 && b.shape(1) == 3))
+        throw py::value_error("TorqueLaw: the jacobian must return two 3x3 arrays (D_w, D_Omega)");
+      D_w = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data());
+      D_v = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(b.data());
+      return;
+    } catch (py::error_already_set& e) {
+      keep(e);
+    } catch (const py::cast_error&) {
+      keep_value_error("TorqueLaw: the jacobian must return two 3x3 arrays (D_w, D_Omega)");
+    } catch (const py::builtin_exception& e) {
+      keep_value_error(e.what());
+    }
+    throw LawRaised{};
+  };
+  return law;
+}
+
 /// (status, rows, messages): status is the CLI's exit code (0 done, 3 a step failed).
 /// `events`: Python event functions, (name, callable, direction, terminal) each, after the
-/// flags' --event (adaptive steps only).
-py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const py::object& events) {
-  Config c = config_of(flags);
+/// flags' --event (adaptive steps only). `rotation`: the initial attitude as a matrix (body
+/// -> space) in place of --rotation. `laws`: trompo.TorqueLaw's callables, (body torque,
+/// body jacobian, space torque, space jacobian), each None or a callable.
+py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const py::object& events,
+                         const std::optional<Array>& rotation, const py::object& laws) {
+  Config c = parse_config(flags);
   if (!c.ensemble.empty() || !c.csv.empty()) throw py::value_error("simulate: --ensemble and --csv are the CLI's");
   if (!events.is_none()) {
     if (!c.adaptive.on) throw py::value_error("events: only with adaptive steps (give rtol)");
     for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
+  }
+  if (rotation) {
+    if (!(rotation->ndim() == 2 && rotation->shape(0) == 3 && rotation->shape(1) == 3))
+      throw py::value_error("rotation: expected (3, 3)");
+    c.rotation_matrix = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(rotation->data());
+  }
+  py::object law_raised = py::none();  // a torque law's exception (set with the GIL held)
+  if (!laws.is_none()) {
+    const py::tuple l = py::reinterpret_borrow<py::tuple>(laws);
+    if (l.size() != 4) throw py::value_error("laws: expected (body, body jacobian, space, space jacobian)");
+    c.body_law = python_torque_law(l[0], l[1], &law_raised);
+    c.space_law = python_torque_law(l[2], l[3], &law_raised);
+    if (c.code_torques() && c.adaptive.picked) {
+      // The picked method (the splitting) is not compiled for laws as code: Simo-kappa's
+      // order-6 composition instead, named on the summary line as any pick.
+      c.scheme = "simo-kappa";
+      c.order = 6;
+    }
+  }
+  try {
+    validate(c);
+  } catch (const invalid_input& e) {
+    throw py::value_error(e.what());
   }
   ArraySink sink;
   // a guess, capped (an adaptive run without --dt: its steps are unknown)
@@ -140,7 +251,14 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
       error = e.what();
     } catch (const std::runtime_error& e) {  // an event function raised (python_event)
       raised = e.what();
+    } catch (const LawRaised&) {  // a torque law raised: its own exception, below
     }
+  }
+  if (!law_raised.is_none()) {
+    // marked, so that trompo's wrapper passes it on as raised (not as an engine message)
+    if (PyObject_SetAttrString(law_raised.ptr(), "trompo_torque_law", Py_True) != 0) PyErr_Clear();
+    PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(law_raised.ptr())), law_raised.ptr());
+    throw py::error_already_set();
   }
   if (!error.empty()) throw py::value_error(error);
   if (!raised.empty()) throw std::runtime_error(raised);
@@ -149,7 +267,6 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
   return py::make_tuple(code, rows_of(sink), messages);
 }
 
-using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
 /// The ensemble: members from arrays, final states out as arrays.
 py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const Array& rotation, const Array& omega,
@@ -423,8 +540,10 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
 PYBIND11_MODULE(_trompo, m) {
   m.doc() = "C++ half of the trompo module: trompo-simulate's logic on NumPy arrays (use trompo.simulate / trompo.ensemble)";
   m.def("simulate_flags", &simulate_flags, py::arg("flags"), py::arg("events") = py::none(),
+        py::arg("rotation") = py::none(), py::arg("laws") = py::none(),
         "Runs trompo-simulate's flags (a dict '--dt' -> '0.001'), with optional Python event functions "
-        "[(name, g(t, y), direction, terminal), ...]; returns (status, rows, messages).");
+        "[(name, g(t, y), direction, terminal), ...], an initial rotation matrix and torque laws "
+        "(body, body jacobian, space, space jacobian); returns (status, rows, messages).");
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
         py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");

@@ -77,8 +77,8 @@ def test_a_failing_member_does_not_stop_the_others():
     ((np.zeros((2, 3)), np.array([[0, 0, 1], [0, np.nan, 1]])), {}, "member 1: state: non-finite omega"),
     ((np.zeros((2, 3)), np.zeros((2, 3))), {"inertia": [[1, 2, 3], [1, 1, 5]]}, "member 1: "),
     ((np.zeros((1, 3, 3)), np.zeros((1, 3))), {}, "member 0: "),
-    ((np.zeros((2, 3)), np.zeros((2, 3))), {"scheme": "exact"}, "--ensemble: not with --scheme exact"),
-    ((np.zeros((2, 3)), np.zeros((2, 3))), {"dt": 0}, "--dt: must be non-zero, got 0"),
+    ((np.zeros((2, 3)), np.zeros((2, 3))), {"scheme": "exact"}, "ensemble: not with scheme exact"),
+    ((np.zeros((2, 3)), np.zeros((2, 3))), {"dt": 0}, "dt: must be non-zero, got 0"),
 ])
 def test_bad_input_is_a_value_error(args, kwargs, message):
     with pytest.raises(ValueError) as e:

@@ -1,6 +1,7 @@
 """trompo.simulate: bit-identical to trompo-simulate's rows, the invariants the schemes
 keep, the CLI's error messages as ValueError, StepFailed with the rows so far, and the
 GIL released while C++ integrates."""
+import re
 import sys
 import threading
 import warnings
@@ -141,12 +142,14 @@ def test_bad_arguments_raise_the_cli_message(flags, kwargs):
     assert rc == 2 and rows is None
     message = err.strip().removeprefix("trompo-simulate: ")
     if kwargs is None:  # a vector of the wrong length is caught in Python, with the flag's name
-        with pytest.raises(ValueError, match="--rotor: expected 3 numbers"):
+        with pytest.raises(ValueError, match="^rotor: expected 3 numbers"):
             trompo.simulate(case="ht1", rotor=[1, 2])
         return
     with pytest.raises(ValueError) as e:
         trompo.simulate(**kwargs)
-    assert str(e.value) == message
+    # the CLI's message with each flag as its keyword (issue: errors in Python's words)
+    assert str(e.value) == re.sub(r"--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_"), message)
+    assert "--" not in str(e.value)
 
 
 def test_other_keywords_are_passed_as_flags():
@@ -246,5 +249,5 @@ def test_compensated_state_keeps_h_and_mu_to_a_few_eps():
         drift[on] = max(np.max(np.abs(r["H"] / r["H"][0] - 1)), np.max(np.abs(r["mu"] / r["mu"][0] - 1)))
     assert drift[True] <= 4 * np.finfo(float).eps
     assert drift[False] >= 10 * drift[True]
-    with pytest.raises(ValueError, match="--compensated: only with --scheme simo-kappa"):
+    with pytest.raises(ValueError, match="^compensated: only with scheme simo-kappa"):
         trompo.simulate(case="ht1", scheme="rk4", compensated=True, t_end=0.1)

@@ -39,7 +39,7 @@ def test_tolerance_scope_and_estimate():
     assert span.success and per_time.success and doubling.success
     assert per_time.nsteps < span.nsteps
     assert np.max(np.abs(doubling.H / doubling.H[0] - 1)) <= 1e-13
-    with pytest.raises(ValueError, match="tol-scope"):
+    with pytest.raises(ValueError, match="^tol_scope: must be span or time"):
         trompo.solve_ivp("ht0", (0, 1), rtol=1e-6, tol_scope="orbit")
     with pytest.raises(ValueError, match="estimate"):
         trompo.solve_ivp("ht0", (0, 1), rtol=1e-6, estimate="guess")
@@ -65,7 +65,7 @@ def test_richardson_for_the_splitting():
 def test_bad_input():
     with pytest.raises(ValueError, match="rtol"):
         trompo.solve_ivp("ht1", (0, 1), rtol=0)
-    with pytest.raises(ValueError, match="t-eval"):
+    with pytest.raises(ValueError, match="^t_eval: "):
         trompo.solve_ivp("ht1", (0, 1), rtol=1e-6, t_eval=[0.5, 0.2])
     with pytest.raises(ValueError, match="t_span"):
         trompo.solve_ivp("ht1", (1, float("inf")))
@@ -100,13 +100,13 @@ def test_defaults_pick_the_method_and_the_first_step():
 
 
 def test_rtol_below_the_round_off_floor_is_raised_with_a_warning():
-    with pytest.warns(UserWarning, match=r"--rtol 1e-16 is below the round-off floor 100\*eps = 2.22e-14"):
+    with pytest.warns(UserWarning, match=r"^rtol 1e-16 is below the round-off floor 100\*eps = 2.22e-14"):
         res = trompo.solve_ivp(None, (0, 1), rtol=1e-16, atol=1e-16, **LAGRANGE)
     assert res.success
 
 
 def test_flip_on_a_symmetric_body_is_refused():
-    with pytest.raises(ValueError, match=r"--event flip: the body's principal moments 1.3, 4, 4 have two equal"):
+    with pytest.raises(ValueError, match=r"^events flip: the body's principal moments 1.3, 4, 4 have two equal"):
         trompo.solve_ivp(None, (0, 1), rtol=1e-6, events=["flip"], **LAGRANGE)
 
 

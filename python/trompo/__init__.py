@@ -1,7 +1,9 @@
 """trompo: structure-preserving integrators for rigid-body rotation, from Python.
 
-simulate() runs one trajectory with trompo-simulate's flags as keywords (the CLI's own engine:
-its rows bit for bit, as NumPy arrays), solve_ivp() adaptive steps with SciPy's vocabulary,
+A scene is built from objects (Scene, RigidBody, Gravity, Damping, BodyTorque, SpaceTorque,
+Rotor, GravityGradient, TorqueLaw: trompo/scene.py) or named by a case ("ht1"); simulate()
+runs one trajectory (the CLI's own engine: its rows bit for bit, as NumPy arrays; any of
+trompo-simulate's flags as a keyword), solve_ivp() adaptive steps with SciPy's vocabulary,
 ensemble() many tops across cores, control() a spacecraft with a sampled controller in the loop.
 
 The API is described once, in docs/python.md of the repository.
@@ -30,9 +32,13 @@ from ._trompo import ensemble_flags as _ensemble_flags
 from ._trompo import simulate_flags as _simulate_flags
 from ._trompo import usage as _usage
 from ._trompo import __version__
+from .scene import (BodyTorque, Damping, Gravity, GravityGradient, RigidBody, Rotor, Scene, SpaceTorque, State,
+                    TorqueLaw, initial_state)
+from .scene import _array, _finite, _rotation_matrix, _text, state_of_y
 
 __all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__",
-           "control", "Wheel", "Orbit", "Spacecraft", "State", "initial_state", "MrpPd", "BDot", "ControlResult",
+           "RigidBody", "Gravity", "Damping", "BodyTorque", "SpaceTorque", "Rotor", "GravityGradient", "TorqueLaw",
+           "Scene", "control", "Wheel", "Orbit", "Spacecraft", "State", "initial_state", "MrpPd", "BDot", "ControlResult",
            "ControlError", "CommandError", "mrp"]
 
 #: The keys of simulate()'s dict, in the CSV header's order (R is (n,3,3), W and pi (n,3)).
@@ -60,7 +66,7 @@ def _number(name, x):
     if isinstance(x, str):
         return x
     if isinstance(x, bool) or not isinstance(x, (numbers.Real, np.number)):
-        raise ValueError(f"--{name}: not a number: {x!r}")
+        raise ValueError(f"{name}: not a number: {x!r}")
     if isinstance(x, (numbers.Integral, np.integer)):
         return str(int(x))
     # repr of a float is its shortest round-trip form: strtod gives back the same double.
@@ -73,11 +79,11 @@ def _vector(name, x, sizes=(3,)):
     a = np.asarray(x, dtype=float)
     if name == "inertia" and a.shape == (3, 3):
         if not np.array_equal(a, a.T):
-            raise ValueError(f"--inertia: not symmetric: {a.tolist()}")
+            raise ValueError(f"inertia: not symmetric: {a.tolist()}")
         a = np.array([a[0, 0], a[1, 1], a[2, 2], a[0, 1], a[0, 2], a[1, 2]])
     if a.ndim != 1 or a.size not in sizes:
         want = " or ".join(str(s) for s in sizes)
-        raise ValueError(f"--{name.replace('_', '-')}: expected {want} numbers, got shape {a.shape}")
+        raise ValueError(f"{name}: expected {want} numbers, got shape {a.shape}")
     return ",".join(repr(float(v)) for v in a)
 
 
@@ -120,7 +126,7 @@ def _flags(kwargs):
         if name in _WORDS:
             flags[flag] = str(value)
         elif name in _SCALARS:
-            flags[flag] = _number(name.replace("_", "-"), value)
+            flags[flag] = _number(name, value)
         elif name in _VECTORS:
             flags[flag] = _vector(name, value, _VECTORS[name])
         elif isinstance(value, str):
@@ -128,22 +134,85 @@ def _flags(kwargs):
             # is usable from Python at once, and an unknown one is the CLI's error.
             flags[flag] = value
         elif isinstance(value, (numbers.Real, np.number)):
-            flags[flag] = _number(name.replace("_", "-"), value)
+            flags[flag] = _number(name, value)
         else:
             a = np.asarray(value, dtype=float).ravel()
             flags[flag] = ",".join(repr(float(v)) for v in a)
     return flags
 
 
-def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None, inertia=None, mgl=None,
+# ---- objects and keywords to the engine, and its messages back in Python's words ----
+def _python_words(message, renames=None):
+    """The engine's message with each flag as the keyword that sets it: "--t-end: required"
+    is "t_end: required" (``renames``: a flag whose keyword differs, e.g. solve_ivp's
+    first_step for --dt)."""
+    renames = renames or {}
+
+    def keyword(m):
+        name = m.group(1).replace("-", "_")
+        return renames.get(name, name)
+    return re.sub(r"--([a-z][a-z0-9-]*)", keyword, message)
+
+
+def _engine_args(function, kwargs, state, scene_keywords=()):
+    """(flags, rotation matrix or None, torque laws or None) for the engine from the
+    keywords, a Scene given as ``case`` and a State. A number given both by the scene (or
+    the state) and by a keyword is a TypeError naming it."""
+    scene = kwargs.get("case")
+    if isinstance(scene, Scene):
+        kwargs = dict(kwargs, case=None)
+    elif scene is not None and not isinstance(scene, str):
+        raise TypeError(f"{function}(): the first argument is a case's name or a trompo.Scene, got {scene!r}")
+    else:
+        scene = None
+    flags = _flags(kwargs)
+    rotation, laws = None, None
+    if scene is not None:
+        for flag, value in scene._flags().items():
+            if flag in flags:
+                raise TypeError(f"{function}(): {flag[2:].replace('-', '_')!r} is given by the scene too")
+            flags[flag] = value
+        laws = scene._laws()
+    if state is not None:
+        if not isinstance(state, State):
+            raise TypeError(f"{function}(): state must be a trompo.State (trompo.initial_state(...)), got {state!r}")
+        for name in ("rotation", "omega"):
+            if "--" + name in flags:
+                raise TypeError(f"{function}(): {name!r} is given by the state too")
+        if state.rotvec is not None:  # as --rotation: bit for bit the keyword's run
+            flags["--rotation"] = _text(state.rotvec)
+        else:
+            rotation = np.ascontiguousarray(state.R, dtype=float)
+        flags["--omega"] = _text(state.omega)
+    return flags, rotation, laws
+
+
+def _run_engine(flags, rotation=None, laws=None, code_events=None, renames=None):
+    """simulate_flags, its ValueError in Python's words (a TorqueLaw's own exception, marked
+    by the engine, goes through as raised)."""
+    try:
+        return _simulate_flags(flags, code_events, rotation, laws)
+    except ValueError as e:
+        if getattr(e, "trompo_torque_law", False):
+            raise
+        raise ValueError(_python_words(str(e), renames)) from None
+
+
+#: solve_ivp's keywords for the flags whose names differ.
+_SOLVE_IVP_WORDS = {"dt": "first_step", "t_end": "t_span", "event": "events"}
+
+
+def simulate(case=None, *, state=None, scheme=None, alpha=None, order=None, composition=None, inertia=None, mgl=None,
              com=None, up=None, rotation=None, omega=None, dt=None, t_end=None, every=None, damping=None,
              torque=None, space_torque=None, rotor=None, gravity_gradient=None, orbit_normal=None, radial=None,
              **flags):
-    """One trajectory, as ``trompo-simulate`` with the same flags (``t_end`` is ``--t-end``).
+    """One trajectory: ``case`` a trompo.Scene or a case's name ("ht1", ...), ``state`` a
+    trompo.State (initial_state(...)), fixed steps of ``dt`` to ``t_end``; the other keywords
+    are trompo-simulate's flags (``t_end`` is ``--t-end``), bit for bit its rows.
 
     Returns a dict of NumPy arrays keyed like the CSV header (``t``, ``R``, ``W``, ``H``,
-    ``mu``, ``pi``, ``iterations``); raises ValueError with the CLI's message, StepFailed
-    when a step fails beyond recovery. docs/python.md, "trompo.simulate".
+    ``mu``, ``pi``, ``iterations``); raises ValueError naming the keyword at fault,
+    StepFailed when a step fails beyond recovery. docs/python.md, "trompo.simulate".
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, inertia=inertia,
                   mgl=mgl, com=com, up=up, rotation=rotation, omega=omega, dt=dt, t_end=t_end, every=every,
@@ -154,9 +223,9 @@ def simulate(case=None, *, scheme=None, alpha=None, order=None, composition=None
             raise TypeError(f"simulate: {name!r} is not for simulate (see trompo.ensemble)")
     _check_keywords("simulate", flags, simulate.__code__.co_varnames[:simulate.__code__.co_argcount +
                                                                       simulate.__code__.co_kwonlyargcount])
-    status, rows, messages = _simulate_flags(_flags(kwargs))
+    status, rows, messages = _run_engine(*_engine_args("simulate", kwargs, state))
     if status == 3:
-        raise StepFailed(messages[-1], rows)
+        raise StepFailed(_python_words(messages[-1]), rows)
     _warn_engine(messages, Recovered, stacklevel=2)
     return rows
 
@@ -181,20 +250,22 @@ _SUMMARY = re.compile(r"adaptive \((\w+), rtol [^,]*, atol [^)]*\): (\d+) accept
 _WARNING = "warning: "
 
 
-def _warn_engine(messages, category, stacklevel):
+def _warn_engine(messages, category, stacklevel, renames=None):
     """The engine's messages as Python warnings: its own warnings as UserWarning, the rest
     (sub-stepping's recoveries) as `category`; a summary line (adaptive runs) is not one."""
     for m in messages:
         if m.startswith(_WARNING):
-            warnings.warn(m[len(_WARNING):], UserWarning, stacklevel=stacklevel + 1)
+            warnings.warn(_python_words(m[len(_WARNING):], renames), UserWarning, stacklevel=stacklevel + 1)
         elif category is not None and not _SUMMARY.match(m):
             warnings.warn(m, category, stacklevel=stacklevel + 1)
 
 
-def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, events=None, first_step=None,
+def solve_ivp(case=None, t_span=None, y0=None, *, rtol=1e-3, atol=1e-6, t_eval=None, events=None, first_step=None,
               control=None, dense_output=False, **flags):
     """Adaptive steps with SciPy's vocabulary, through trompo-simulate's own engine (bit for
-    bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags).
+    bit the rows of ``trompo-simulate --rtol R --atol A ...`` with the same flags): ``case`` a
+    trompo.Scene or a case's name, ``y0`` a trompo.State or 12 numbers (R row-major, then
+    omega: the columns of ``y``).
 
     Without ``scheme``, ``order`` and ``first_step`` the engine picks the first step and the
     cheapest method for the scene and tolerance, named in ``method``; an ``rtol`` below
@@ -206,14 +277,19 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     for name in ("ensemble", "csv", "threads", "t_end", "event_csv", "every"):
         if name in flags:
             raise TypeError(f"solve_ivp: {name!r} is not a solve_ivp argument")
-    _check_keywords("solve_ivp", flags, ("case", "t_span", "rtol", "atol", "t_eval", "events", "first_step", "control",
-                                         "dense_output"))
+    _check_keywords("solve_ivp", flags, ("case", "t_span", "y0", "rtol", "atol", "t_eval", "events", "first_step",
+                                         "control", "dense_output"))
+    state = None if y0 is None else state_of_y("y0", y0)
+
+    def run(kw, code_events=None):
+        return _run_engine(*_engine_args("solve_ivp", kw, state), code_events=code_events, renames=_SOLVE_IVP_WORDS)
     t0, t1 = 0.0, None
     if t_span is not None:
         t0, t1 = (float(x) for x in t_span)
         if not (np.isfinite(t0) and np.isfinite(t1)):
             raise ValueError(f"t_span: must be finite, got {t_span!r}")
-        if t0 != 0.0 and (flags.get("gravity_gradient") is not None or str(case).startswith("sat")):
+        satellite = isinstance(case, Scene) and case.effect(GravityGradient) is not None
+        if t0 != 0.0 and (flags.get("gravity_gradient") is not None or str(case).startswith("sat") or satellite):
             # a satellite's orbit frame turns with t (radial direction given at t = 0)
             raise ValueError("t_span: t0 != 0 needs a scene without time dependence (not a satellite)")
         kwargs["t_end"] = t1 - t0  # the autonomous run from 0 (docstring)
@@ -249,13 +325,13 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
             kwargs["event"] = ";".join(items)
     event_rows = []
     if not names:  # no event file to read (its creation costs as much as a short run)
-        status, rows, messages = _simulate_flags(_flags(kwargs), None)
+        status, rows, messages = run(kwargs)
     else:
         fd, event_path = tempfile.mkstemp(suffix=".csv")
         os.close(fd)
         try:
             kwargs["event_csv"] = event_path
-            status, rows, messages = _simulate_flags(_flags(kwargs), code_events or None)
+            status, rows, messages = run(kwargs, code_events or None)
             with open(event_path) as f:
                 next(f)
                 event_rows = [line.rstrip("\n").split(",") for line in f]
@@ -264,7 +340,7 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
     m = next((_SUMMARY.match(x) for x in messages if _SUMMARY.match(x)), None)
     if m is None:
         raise RuntimeError("solve_ivp: no summary from the engine: " + "; ".join(messages))
-    _warn_engine(messages, None, stacklevel=2)
+    _warn_engine(messages, None, stacklevel=2, renames=_SOLVE_IVP_WORDS)
     ended = m.group(6)
     code = 1 if ended == "stopped by a terminal event" else 0 if ended == "reached t_end" else -1
     n = len(rows["t"])
@@ -285,7 +361,7 @@ def solve_ivp(case=None, t_span=None, *, rtol=1e-3, atol=1e-6, t_eval=None, even
             t_last = float(event_rows[-1][1]) + t0
         else:
             t_last = t1 if t1 is not None else float(t_eval[-1])
-        res["sol"] = _dense_solution(kwargs, t0, t0, t_last, code_events or None)
+        res["sol"] = _dense_solution(run, kwargs, t0, t0, t_last, code_events or None)
     res["t_events"], res["y_events"] = [], []
     for name in names:
         sel = [r for r in event_rows if r[0] == name]
@@ -313,8 +389,9 @@ def _column_states(rows):
     return np.concatenate([rows["R"].reshape(n, 9), rows["W"]], axis=1)
 
 
-def _dense_solution(kwargs, t0, t_first, t_last, code_events=None):
-    """solve_ivp's ``sol``: the run of ``kwargs`` again, with rows at the requested times."""
+def _dense_solution(run, kwargs, t0, t_first, t_last, code_events=None):
+    """solve_ivp's ``sol``: the run of ``kwargs`` again (by ``run``), with rows at the
+    requested times."""
     kwargs = {k: v for k, v in kwargs.items() if k not in ("t_eval", "event_csv")}
     lo, hi = min(t_first, t_last), max(t_first, t_last)
 
@@ -329,8 +406,7 @@ def _dense_solution(kwargs, t0, t_first, t_last, code_events=None):
         if t_last < t_first:
             times = times[::-1]
         # the same events: a terminal one ends this run at the same step, as the first
-        status, rows, messages = _simulate_flags(_flags(dict(kwargs, t_eval=",".join(repr(float(v - t0)) for v in times))),
-                                                 code_events)
+        status, rows, messages = run(dict(kwargs, t_eval=",".join(repr(float(v - t0)) for v in times)), code_events)
         if len(rows["t"]) != len(times):
             raise RuntimeError("sol: the engine gave %d of %d rows: %s" % (len(rows["t"]), len(times), "; ".join(messages)))
         y = _column_states(rows)[np.searchsorted(times, flat) if t_last >= t_first
@@ -341,13 +417,14 @@ def _dense_solution(kwargs, t0, t_first, t_last, code_events=None):
 # ---- end adaptive ----
 
 
-def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
+def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
              composition=None, com=None, up=None, dt=None, t_end=None, damping=None, torque=None,
              space_torque=None, rotor=None, threads=0, progress=False, **flags):
     """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
 
-    ``rotation`` (N,3) or (N,3,3), ``omega`` (N,3), optional per-member ``mgl`` and ``inertia``;
-    the other keywords are simulate()'s. Returns a dict of arrays, one entry per member, each
+    ``rotation`` (N,3) or (N,3,3), ``omega`` (N,3), ``scene`` a trompo.Scene shared by the
+    members (or ``case`` a name), optional per-member ``mgl`` and ``inertia`` arrays; the
+    other keywords are simulate()'s. Returns a dict of arrays, one entry per member, each
     bit-identical to its single run; a failed member raises nothing (``ok``, ``status``).
     docs/python.md, "Python: trompo.ensemble".
     """
@@ -357,8 +434,16 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
     for name in ("ensemble", "csv", "every"):
         if name in flags:
             raise TypeError(f"ensemble: {name!r} is not for ensemble")
-    _check_keywords("ensemble", flags, ("rotation", "omega", "mgl", "inertia", "progress"))
-    flags = _flags(kwargs)
+    _check_keywords("ensemble", flags, ("rotation", "omega", "scene", "mgl", "inertia", "progress"))
+    if scene is not None:
+        if not isinstance(scene, Scene):
+            raise TypeError(f"ensemble(): scene must be a trompo.Scene, got {scene!r}")
+        if case is not None:
+            raise TypeError("ensemble(): give scene or case, not both")
+        if scene._laws() is not None:
+            raise ValueError("scene: a TorqueLaw cannot run in an ensemble (each call takes the interpreter's lock); "
+                             "give its torque as a built-in effect")
+    flags, _, _ = _engine_args("ensemble", dict(kwargs, case=scene if scene is not None else case), None)
     flags["--ensemble"] = "(arrays)"
     rotation = np.asarray(rotation, dtype=float)
     omega = np.asarray(omega, dtype=float)
@@ -366,23 +451,31 @@ def ensemble(rotation, omega, *, mgl=None, inertia=None, case=None, scheme=None,
         mgl = np.asarray(mgl, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
+    run = _ensemble_in_python_words
     if not progress:
-        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+        return run(flags, rotation, omega, mgl, inertia)
     report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))
     n = len(rotation)
     size = max(1, -(-n // 20))
     parts = []
     for lo in range(0, n, size):
         hi = min(n, lo + size)
-        parts.append(_ensemble_flags(flags, rotation[lo:hi], omega[lo:hi], None if mgl is None else mgl[lo:hi],
+        parts.append(run(flags, rotation[lo:hi], omega[lo:hi], None if mgl is None else mgl[lo:hi],
                                      None if inertia is None else inertia[lo:hi]))
         report(hi, n)
     if not parts:  # N = 0: the engine's own error
-        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+        return run(flags, rotation, omega, mgl, inertia)
     out = {}
     for key, first in parts[0].items():
         out[key] = [x for p in parts for x in p[key]] if isinstance(first, list) else np.concatenate([p[key] for p in parts])
     return out
+
+
+def _ensemble_in_python_words(flags, rotation, omega, mgl, inertia):
+    try:
+        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+    except ValueError as e:
+        raise ValueError(_python_words(str(e))) from None
 
 
 def usage():
@@ -391,39 +484,6 @@ def usage():
 
 
 # ---- control in the loop (docs/python.md, "Control in the loop from Python") ----
-def _finite(name, x, *, positive=False, nonnegative=False, allow_inf=False):
-    if isinstance(x, bool) or not isinstance(x, (numbers.Real, np.number)):
-        raise ValueError(f"{name}: expected a number, got {x!r}")
-    x = float(x)
-    if math.isnan(x) or (math.isinf(x) and not (allow_inf and x > 0)):
-        raise ValueError(f"{name}: must be finite{' or inf' if allow_inf else ''}, got {x!r}")
-    if positive and not x > 0:
-        raise ValueError(f"{name}: must be > 0, got {x!r}")
-    if nonnegative and not x >= 0:
-        raise ValueError(f"{name}: must be >= 0, got {x!r}")
-    return x
-
-
-def _array(name, x, shape):
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected numbers of shape {shape}, got {x!r}") from None
-    if a.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: must be finite, got {a.tolist()}")
-    return a
-
-
-def _rotation_matrix(name, x):
-    a = _array(name, x, (3, 3))
-    err = np.max(np.abs(a.T @ a - np.eye(3)))
-    if not err <= 1e-9 or not np.linalg.det(a) > 0:
-        raise ValueError(f"{name}: not a rotation matrix (max|R^T R - I| = {err:.3g}, det = {np.linalg.det(a):.6g})")
-    return a
-
-
 class Wheel:
     """A reaction wheel: spin ``axis`` in body axes (normalised by the engine), axial inertia
     ``Js`` (kg m^2), initial speed ``speed0`` relative to the body (rad/s), motor torque limit
@@ -494,56 +554,6 @@ class Spacecraft:
     def __repr__(self):
         return f"Spacecraft(inertia={self.inertia.tolist()}, wheels={list(self.wheels)}, orbit={self.orbit!r}, " \
                f"max_dipole={self.max_dipole!r})"
-
-
-class State:
-    """An initial state: ``R`` (3,3) body -> space (Λ: a body vector's space components are
-    R @ v) and ``omega`` (3,) the body angular velocity (rad/s, body axes)."""
-
-    def __init__(self, R, omega):
-        self.R = R
-        self.omega = omega
-
-    def __repr__(self):
-        return f"State(R={self.R.tolist()}, omega={self.omega.tolist()})"
-
-
-def _matrix_of_quaternion(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def initial_state(*, rotation=None, quaternion=None, scalar_first=True, rotvec=None, omega=(0.0, 0.0, 0.0)):
-    """The initial state from exactly one of: ``rotation`` a 3x3 rotation matrix body ->
-    space; ``quaternion`` body -> space, scalar first (w, x, y, z) by default as SciPy's
-    ``Rotation.from_quat(q, scalar_first=True)`` (``scalar_first=False``: (x, y, z, w),
-    SciPy's default), normalised; ``rotvec`` a rotation vector (angle * axis, radians) as
-    SciPy's ``from_rotvec`` and the CLI's --rotation. ``omega``: body angular velocity."""
-    given = [n for n, v in (("rotation", rotation), ("quaternion", quaternion), ("rotvec", rotvec)) if v is not None]
-    if len(given) != 1:
-        raise ValueError("initial_state: give exactly one of rotation, quaternion, rotvec"
-                         + (f" (got {', '.join(given)})" if given else ""))
-    if rotation is not None:
-        R = _rotation_matrix("rotation", rotation)
-    elif quaternion is not None:
-        q = _array("quaternion", quaternion, (4,))
-        if not scalar_first:
-            q = np.roll(q, 1)
-        n = np.linalg.norm(q)
-        if not n > 0:
-            raise ValueError("quaternion: must be non-zero")
-        R = _matrix_of_quaternion(q / n)
-    else:
-        v = _array("rotvec", rotvec, (3,))
-        angle = float(np.linalg.norm(v))
-        K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-        if angle < 1e-8:  # the series, to round-off
-            R = np.eye(3) + K + K @ K / 2
-        else:
-            R = np.eye(3) + math.sin(angle) / angle * K + (1 - math.cos(angle)) / angle ** 2 * (K @ K)
-    return State(R, _array("omega", omega, (3,)))
 
 
 def mrp(m):

@@ -576,6 +576,81 @@ inline int run_control(const Config& c, RowSink& out) {
 }
 // ---- end control ----
 
+// ---- torque laws given as code (trompo.TorqueLaw; no flag) ------------------------------
+
+/// A CodeTorque as the callable of trompo::TorqueLaw (model/effects/torque_law.hpp): the law's
+/// value, and its Jacobians (in the law's own axes, theory [W8]) from the code's own or by
+/// central differences: ∂τ/∂w_k ≈ (τ(Λ exp(δ ê_k)) − τ(Λ exp(−δ ê_k)))/2δ with δ = ε^{1/3},
+/// and ∂τ/∂Ω_k with δ_k = ε^{1/3} max(1, |Ω|∞): truncation and round-off both O(ε^{2/3}),
+/// which Newton's convergence does not notice (it needs a tangent, not an exact one).
+struct CodeLaw {
+  CodeTorque law;
+  V3 operator()(double t, const M3& Lambda, const V3& omega) const {
+    return law.on() ? law.torque(t, Lambda, omega) : V3::Zero();
+  }
+  void jacobians(double t, const M3& Lambda, const V3& omega, M3& D_w, M3& D_v) const {
+    if (!law.on()) {
+      D_w.setZero();
+      D_v.setZero();
+      return;
+    }
+    if (law.jacobians) {
+      law.jacobians(t, Lambda, omega, D_w, D_v);
+      return;
+    }
+    const double d = std::cbrt(std::numeric_limits<double>::epsilon());
+    const double dv = d * std::max(1.0, omega.cwiseAbs().maxCoeff());
+    for (int k = 0; k < 3; ++k) {
+      const V3 e = d * V3::Unit(k);
+      D_w.col(k) = (law.torque(t, Lambda * trompo::SO3d::exp(e).matrix(), omega) -
+                    law.torque(t, Lambda * trompo::SO3d::exp(-e).matrix(), omega)) / (2 * d);
+      D_v.col(k) = (law.torque(t, Lambda, omega + dv * V3::Unit(k)) - law.torque(t, Lambda, omega - dv * V3::Unit(k))) /
+                   (2 * dv);
+    }
+  }
+};
+
+/// The scene of a run with torque laws as code: the effects scene (zeros where not given)
+/// and one law in body axes, one in space axes (zero where not given).
+using CodeTorqueScene =
+    trompo::Scene<double, trompo::UniformGravity<double>, trompo::ViscousDamping<double>, trompo::ConstantBodyTorque<double>,
+                  trompo::ConstantSpaceTorque<double>, trompo::Rotor<double>,
+                  trompo::TorqueLaw<double, CodeLaw, trompo::Axes::body>, trompo::TorqueLaw<double, CodeLaw, trompo::Axes::space>>;
+
+inline CodeTorqueScene code_torque_scene(const Config& c, const trompo::RigidBody<double>& body) {
+  using namespace trompo;
+  return CodeTorqueScene(body, UniformGravity<double>(c.mgl, c.com, c.up), ViscousDamping<double>(c.damping),
+                         ConstantBodyTorque<double>(c.body_torque), ConstantSpaceTorque<double>(c.space_torque),
+                         Rotor<double>(c.rotor), TorqueLaw<double, CodeLaw, Axes::body>(CodeLaw{c.body_law}),
+                         TorqueLaw<double, CodeLaw, Axes::space>(CodeLaw{c.space_law}));
+}
+
+/// The schemes compiled for torque laws as code: each is a call into the interpreter, so
+/// only the applied-torque schemes worth that cost are instantiated (compile time).
+constexpr const char* kCodeTorqueSchemes = "simo-kappa, simo-collocation (plain or composed: order, composition) or rk4";
+
+/// Throws invalid_input for what a torque law as code cannot run with.
+inline void check_code_torques(const Config& c) {
+  if (c.scheme != "simo-kappa" && c.scheme != "simo-collocation" && c.scheme != "rk4")
+    throw invalid_input(std::string("TorqueLaw: runs with scheme ") + kCodeTorqueSchemes + ", got " + c.scheme);
+  if (c.gravity_gradient) throw invalid_input("TorqueLaw: not with GravityGradient (a satellite scene has it alone)");
+  if (c.control.on()) throw invalid_input("TorqueLaw: not in a control run (give the torque as the controller's command)");
+  if (!c.ensemble.empty()) throw invalid_input("TorqueLaw: not in an ensemble (each call takes the interpreter's lock)");
+}
+
+/// A run with torque laws as code, on kCodeTorqueSchemes.
+inline int run_code_torque(const Config& c, const trompo::RigidBody<double>& body, const trompo::State<double>& s0,
+                           RowSink& out) {
+  using namespace trompo;
+  check_code_torques(c);
+  const CodeTorqueScene scene = code_torque_scene(c, body);
+  if (c.scheme == "simo-kappa") return run_scheme(c, make_scheme(std::type_identity<SimoKappa>{}, c), scene, s0, out);
+  if (c.scheme == "simo-collocation")
+    return run_scheme(c, make_scheme(std::type_identity<SimoCollocation>{}, c), scene, s0, out);
+  return run(Stepper<RK4, CodeTorqueScene>(RK4{}, scene), c, s0, out);
+}
+// ---- end torque laws ----
+
 // ---- the checks and the scenes (formerly main's body) ----------------------------------
 
 /// Calls f(scene) with the scene simulate() runs for `body` and weight `mgl`. The library
@@ -634,6 +709,10 @@ void validate(const Config& c) {
     (void)make_controller(c);
     return;
   }
+  if (c.code_torques()) {  // torque laws as code (trompo.TorqueLaw): their own scene
+    check_code_torques(c);
+    check_initial_state(code_torque_scene(c, body), s0, "rotation", "omega");
+  }
   const UniformGravity<double> gravity(c.mgl, c.com, c.up);
   // Effects are validated here too, before any row is written.
   const ViscousDamping<double> damping(c.damping);
@@ -685,11 +764,13 @@ int simulate_any(const Config& c, Out& out) {
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
   State<double> s0;
-  s0.rotation = SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
   s0.omega = c.omega;
   if (c.scheme == "exact") return run_exact(c, body, s0, out);
-  if constexpr (std::is_same_v<Out, RowSink>)
+  if constexpr (std::is_same_v<Out, RowSink>) {
     if (c.control.on()) return run_control(c, out);  // control in the loop
+    if (c.code_torques()) return run_code_torque(c, body, s0, out);  // trompo.TorqueLaw
+  }
   // The scene of with_scene_of; an ensemble with a per-member mgl is a heavy top even
   // where a member's mgl is 0.
   return with_scene_of(c, body, c.mgl, member_weights(out),

@@ -114,6 +114,19 @@ struct AdaptiveFlags {
 };
 // ---- end adaptive ----
 
+// ---- torque laws given as code (no flag: the Python module's trompo.TorqueLaw) ----
+/// A torque law τ(t, Λ, Ω) given as code, in body or space axes (docs/python.md, "A torque
+/// law of your own"). Empty: no torque. Its Jacobians (∂τ/∂w for the right perturbation
+/// Λ exp(ŵ), and ∂τ/∂Ω, in the law's own axes, theory [W8]) come from `jacobians` when given,
+/// else by central differences of the law: 12 more calls per Jacobian evaluation.
+struct CodeTorque {
+  std::function<V3(double, const M3&, const V3&)> torque;           ///< τ(t, Λ, Ω); empty: zero
+  std::function<void(double, const M3&, const V3&, M3&, M3&)> jacobians;  ///< (D_w, D_Ω); empty: differences
+  /// Whether a law is given.
+  bool on() const { return static_cast<bool>(torque); }
+};
+// ---- end torque laws ----
+
 struct Config {
   AdaptiveFlags adaptive;  ///< --rtol … (adaptive steps)
   std::string scheme = "simo-kappa";
@@ -161,6 +174,11 @@ struct Config {
   std::optional<double> chi;                ///< --chi (energy-decaying)
   std::optional<std::string> chi_schedule;  ///< --chi-schedule (energy-decaying)
   ControlFlags control;                     ///< --wheels, --controller, … (control in the loop)
+  // ---- torque laws as code (no flag; trompo.TorqueLaw): schemes simo-kappa, simo-collocation, rk4 ----
+  CodeTorque body_law;   ///< τ in body axes
+  CodeTorque space_law;  ///< τ in space axes
+  /// Whether a torque law is given as code (then the scene of code_torque_scene runs).
+  bool code_torques() const { return body_law.on() || space_law.on(); }
 };
 
 inline double parse_number(const std::string& flag, const std::string& text) {

@@ -430,13 +430,14 @@ trompo::Command<double> command_of(const py::handle& out, bool field) {
 /// --controller mrp-pd:K,P|bdot:k|code, --control-period, --orbit-*, --max-dipole);
 /// `wheels`: (N, 5) rows axis(3), Js, speed0 then max_torque, max_speed in `limits` (N, 2);
 /// `rotation` (3, 3) body -> space, `omega` (3,); `target` mrp-pd's (3, 3); `controller`
-/// a callable f(t, R, W, wheel_speeds, memory) for --controller code. The GIL is released
+/// a callable f(t, R, W, wheel_speeds, memory) for --controller code; `events` Python event
+/// functions as simulate_flags' (with --rtol: adaptive steps over each hold). The GIL is released
 /// while C++ integrates and taken at each sample for the callable only.
 /// Returns (status, rows, messages, raised, t): raised is the controller's exception or
 /// None, t the time of the sample that raised.
 py::tuple control_run(const std::map<std::string, std::string>& flags, const Array& wheels, const Array& limits,
                       const Array& rotation, const Array& omega, const std::optional<Array>& target,
-                      const py::object& controller, const py::object& memory) {
+                      const py::object& controller, const py::object& memory, const py::object& events) {
   if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 && limits.shape(1) == 2 &&
         limits.shape(0) == wheels.shape(0)))
     throw py::value_error("wheels: expected (N, 5) and (N, 2) arrays");
@@ -462,6 +463,10 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
     }
     if (!c.control.wheels.empty()) c.control.wheels_file = "(trompo.Spacecraft)";
     check_control(c, flags);  // again, with the wheels (mrp-pd needs axes spanning 3-D)
+    if (!events.is_none()) {  // Python event functions (adaptive steps only), as simulate_flags'
+      if (!c.adaptive.on) throw py::value_error("events: only with adaptive steps (give rtol)");
+      for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
+    }
     c.rotation_matrix = matrix_of(rotation);
     c.omega = V3(omega.data()[0], omega.data()[1], omega.data()[2]);
     if (target) c.control.target_matrix = matrix_of(*target);
@@ -549,7 +554,7 @@ PYBIND11_MODULE(_trompo, m) {
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
   m.def("control_run", &control_run, py::arg("flags"), py::arg("wheels"), py::arg("limits"), py::arg("rotation"),
         py::arg("omega"), py::arg("target") = py::none(), py::arg("controller") = py::none(),
-        py::arg("memory") = py::none(),
+        py::arg("memory") = py::none(), py::arg("events") = py::none(),
         "One control run (trompo.control): returns (status, rows, messages, raised, t); status -1: the controller raised at t.");
   m.def("usage", &usage, "trompo-simulate --help");
   m.attr("__version__") = TROMPO_VERSION;

@@ -296,47 +296,10 @@ def solve_ivp(case=None, t_span=None, y0=None, *, rtol=1e-3, atol=1e-6, t_eval=N
     if t_eval is not None:
         t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
         kwargs["t_eval"] = ",".join(repr(float(v - t0)) for v in t_eval)
-    names = []       # per event, in the order given: the name its rows carry
-    code_events = []  # the callables: (name, g, direction, terminal)
-    if events is not None:
-        if callable(events) or isinstance(events, str) or not isinstance(events, (list, tuple)):
-            events = [events]
-        items = []
-        for i, e in enumerate(events):
-            terminal = int(getattr(e, "terminal", 0))  # True counts as 1
-            if terminal < 0:
-                raise ValueError(f"events[{i}].terminal: must be a bool or a count >= 0, got {terminal!r}")
-            if isinstance(e, str) or (hasattr(e, "name") and isinstance(e.name, str) and not callable(e)):
-                name = e if isinstance(e, str) else e.name
-                if getattr(e, "direction", 0) not in (0,):
-                    raise ValueError("solve_ivp: the built-in events carry their own direction")
-                names.append(name)
-                items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
-            elif callable(e):
-                direction = getattr(e, "direction", 0)
-                if direction not in (-1, 0, 1):  # -1.0, 0.0 and 1.0 compare equal too
-                    raise ValueError(f"events[{i}].direction: must be -1, 0 or 1, got {direction!r}")
-                name = f"python-event-{i}"
-                names.append(name)
-                code_events.append((name, _event_function(e, t0), int(direction), terminal))
-            else:
-                raise TypeError(f"events[{i}]: expected a built-in name or a callable g(t, y), got {e!r}")
-        if items:
-            kwargs["event"] = ";".join(items)
-    event_rows = []
-    if not names:  # no event file to read (its creation costs as much as a short run)
-        status, rows, messages = run(kwargs)
-    else:
-        fd, event_path = tempfile.mkstemp(suffix=".csv")
-        os.close(fd)
-        try:
-            kwargs["event_csv"] = event_path
-            status, rows, messages = run(kwargs, code_events or None)
-            with open(event_path) as f:
-                next(f)
-                event_rows = [line.rstrip("\n").split(",") for line in f]
-        finally:
-            os.unlink(event_path)
+    names, items, code_events = _event_list("solve_ivp", events, t0)
+    if items:
+        kwargs["event"] = ";".join(items)
+    status, rows, messages, event_rows = _with_event_csv(names, kwargs, lambda kw: run(kw, code_events or None))
     m = next((_SUMMARY.match(x) for x in messages if _SUMMARY.match(x)), None)
     if m is None:
         raise RuntimeError("solve_ivp: no summary from the engine: " + "; ".join(messages))
@@ -362,11 +325,7 @@ def solve_ivp(case=None, t_span=None, y0=None, *, rtol=1e-3, atol=1e-6, t_eval=N
         else:
             t_last = t1 if t1 is not None else float(t_eval[-1])
         res["sol"] = _dense_solution(run, kwargs, t0, t0, t_last, code_events or None)
-    res["t_events"], res["y_events"] = [], []
-    for name in names:
-        sel = [r for r in event_rows if r[0] == name]
-        res["t_events"].append(np.array([float(r[1]) + t0 for r in sel]))
-        res["y_events"].append(np.array([[float(v) for v in r[2:14]] for r in sel]).reshape(len(sel), 12))
+    res["t_events"], res["y_events"] = _events_by_name(names, event_rows, t0)
     res["status"] = code
     res["success"] = code >= 0
     res["message"] = {1: "A termination event occurred.",
@@ -374,6 +333,65 @@ def solve_ivp(case=None, t_span=None, y0=None, *, rtol=1e-3, atol=1e-6, t_eval=N
     res["nsteps"], res["nreject"], res["nfail"], res["niter"] = (int(m.group(k)) for k in (2, 3, 4, 5))
     res["method"] = m.group(7)
     return res
+
+
+def _event_list(function, events, t0):
+    """(names, built-in items for --event, code events) from solve_ivp's ``events``: built-in
+    names (or objects with .name) and callables g(t, y) with .terminal and .direction."""
+    names = []       # per event, in the order given: the name its rows carry
+    items = []       # the built-in ones as --event's NAME[:terminal:N]
+    code_events = []  # the callables: (name, g, direction, terminal)
+    if events is None:
+        return names, items, code_events
+    if callable(events) or isinstance(events, str) or not isinstance(events, (list, tuple)):
+        events = [events]
+    for i, e in enumerate(events):
+        terminal = int(getattr(e, "terminal", 0))  # True counts as 1
+        if terminal < 0:
+            raise ValueError(f"events[{i}].terminal: must be a bool or a count >= 0, got {terminal!r}")
+        if isinstance(e, str) or (hasattr(e, "name") and isinstance(e.name, str) and not callable(e)):
+            name = e if isinstance(e, str) else e.name
+            if getattr(e, "direction", 0) not in (0,):
+                raise ValueError(f"{function}: the built-in events carry their own direction")
+            names.append(name)
+            items.append(name if terminal == 0 else f"{name}:terminal:{terminal}")
+        elif callable(e):
+            direction = getattr(e, "direction", 0)
+            if direction not in (-1, 0, 1):  # -1.0, 0.0 and 1.0 compare equal too
+                raise ValueError(f"events[{i}].direction: must be -1, 0 or 1, got {direction!r}")
+            name = f"python-event-{i}"
+            names.append(name)
+            code_events.append((name, _event_function(e, t0), int(direction), terminal))
+        else:
+            raise TypeError(f"events[{i}]: expected a built-in name or a callable g(t, y), got {e!r}")
+    return names, items, code_events
+
+
+def _with_event_csv(names, kwargs, run, key="event_csv"):
+    """run(kwargs) with kwargs[key] (--event-csv) a temporary file when there are events:
+    run's tuple, then the event rows as lists of text."""
+    if not names:  # no event file to read (its creation costs as much as a short run)
+        return (*run(kwargs), [])
+    fd, event_path = tempfile.mkstemp(suffix=".csv")
+    os.close(fd)
+    try:
+        out = run(dict(kwargs, **{key: event_path}))
+        with open(event_path) as f:
+            next(f)
+            event_rows = [line.rstrip("\n").split(",") for line in f]
+    finally:
+        os.unlink(event_path)
+    return (*out, event_rows)
+
+
+def _events_by_name(names, event_rows, t0):
+    """SciPy's t_events and y_events (y: R row-major, then omega) from the event rows."""
+    t_events, y_events = [], []
+    for name in names:
+        sel = [r for r in event_rows if r[0] == name]
+        t_events.append(np.array([float(r[1]) + t0 for r in sel]))
+        y_events.append(np.array([[float(v) for v in r[2:14]] for r in sel]).reshape(len(sel), 12))
+    return t_events, y_events
 
 
 def _event_function(e, t0):
@@ -641,10 +659,14 @@ class CommandError(ControlError, ValueError):
     the message names the command and t_k. Also a ValueError."""
 
 
-def control(spacecraft, state, t_end, *, dt, period, controller, scheme="simo-kappa", order=2, every=1):
+def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6, t_eval=None, events=None,
+            scheme="simo-kappa", order=2, every=1):
     """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
     or a Python callable ``f(t, R, W, wheel_speeds, memory)`` returning a dict of commands)
-    sampled every ``period``, its commands held in between, fixed steps of ``dt``.
+    sampled every ``period``, its commands held in between: fixed steps of ``dt``, or with
+    ``rtol`` adaptive steps over each hold (``dt`` the first step, optional), rows at
+    ``t_eval`` and ``events`` (non-terminal: built-in names or callables g(t, y)) as
+    solve_ivp's, across the samples.
 
     Returns a ControlResult; raises ValueError, CommandError, ControlError or StepFailed,
     carrying the rows so far. docs/python.md, "Control in the loop from Python".
@@ -654,16 +676,34 @@ def control(spacecraft, state, t_end, *, dt, period, controller, scheme="simo-ka
     if not isinstance(state, State):
         raise ValueError(f"state: expected a trompo.State (trompo.initial_state(...)), got {state!r}")
     t_end = _finite("t_end", t_end, positive=True)
-    dt = _finite("dt", dt, positive=True)
+    if dt is None and rtol is None:
+        raise ValueError("dt: required (or give rtol for adaptive steps)")
+    if dt is not None:
+        dt = _finite("dt", dt, positive=True)
     period = _finite("period", period, positive=True)
-    if period < dt:
+    if dt is not None and period < dt:
         raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
+    if rtol is None and (t_eval is not None or events is not None):
+        raise ValueError(f"{'t_eval' if t_eval is not None else 'events'}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
     if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
         raise ValueError(f"order: must be an integer, got {order!r}")
-    flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--dt": repr(dt), "--t-end": repr(t_end),
-             "--every": str(int(every)), "--scheme": str(scheme), "--control-period": repr(period)}
+    flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--t-end": repr(t_end),
+             "--scheme": str(scheme), "--control-period": repr(period)}
+    if dt is not None:
+        flags["--dt"] = repr(dt)
+    if t_eval is None:
+        flags["--every"] = str(int(every))
+    names, code_events = [], []
+    if rtol is not None:
+        flags["--rtol"] = _number("rtol", rtol)
+        flags["--atol"] = _number("atol", atol)
+        if t_eval is not None:
+            flags["--t-eval"] = _text(np.atleast_1d(np.asarray(t_eval, dtype=float)))
+        names, items, code_events = _event_list("control", events, 0.0)
+        if items:
+            flags["--event"] = ";".join(items)
     if order != 2:
         flags["--order"] = str(int(order))
     if spacecraft.orbit is not None:
@@ -692,9 +732,19 @@ def control(spacecraft, state, t_end, *, dt, period, controller, scheme="simo-ka
     n = len(spacecraft.wheels)
     wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
     limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
-    status, rows, messages, raised, t_raised = _control_run(flags, wheels, limits, state.R, state.omega, target, fn,
-                                                            memory)
+    def run(f):
+        return _control_run(f, wheels, limits, state.R, state.omega, target, fn, memory, code_events or None)
+    try:
+        status, rows, messages, raised, t_raised, event_rows = _with_event_csv(names, flags, run, key="--event-csv")
+    except ValueError as e:
+        raise ValueError(_python_words(str(e))) from None
     res = ControlResult(rows)
+    summary = next((_SUMMARY.match(x) for x in messages if _SUMMARY.match(x)), None)
+    if summary is not None:
+        res["nsteps"], res["nreject"], res["nfail"], res["niter"] = (int(summary.group(k)) for k in (2, 3, 4, 5))
+        res["method"] = summary.group(7)
+    if names:
+        res["t_events"], res["y_events"] = _events_by_name(names, event_rows, 0.0)
     res["success"] = status == 0
     res["message"] = "ok" if status == 0 else (messages[-1] if messages else "")
     if status == -1:

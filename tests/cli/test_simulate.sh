@@ -256,6 +256,20 @@ check "free wheels (a gyrostat, simo-kappa): H (wheels' energy included) and pi 
 "$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --scheme splitting --every 10 >"$tmp/rws.csv" 2>&1; rc=$?
 check "wheels + mrp-pd, the splitting (rotor flow [W14]): exit 0, pi exact, the same attitude as simo-kappa to 1e-3" \
   '[ $rc -eq 0 ] && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rws.csv" && paste -d, "$tmp/rw.csv" "$tmp/rws.csv" | awk -F, "NR>1{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-3) bad=1}} END{exit bad}"'
+# --rtol: adaptive steps over each hold (a new run each hold), rows at every sample and at
+# every accepted step; against the fixed-step run at dt 0.1 and a converged one (order 4, dt 0.01).
+"$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 \
+  --control-period 0.5 --order 4 --dt 0.01 --every 6000 >"$tmp/rwref.csv" 2>&1
+"$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 \
+  --control-period 0.5 --rtol 1e-9 --atol 1e-9 >"$tmp/rwa.csv" 2>"$tmp/rwa.err"; rc=$?
+check "wheels + mrp-pd, --rtol 1e-9 without --dt: exit 0, the summary line, pi exact, u within 0.2" \
+  '[ $rc -eq 0 ] && grep -qE "^trompo-simulate: adaptive \(tolerance, rtol 1e-09, atol 1e-09\): [0-9]+ accepted, .*; reached t_end; method simo-kappa \(order 2\)$" "$tmp/rwa.err" && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}; for(i=23;i<=25;i++){a=\$i<0?-\$i:\$i; if(a>0.2+1e-15) bad=1}} END{exit bad}" "$tmp/rwa.csv"'
+check "wheels + mrp-pd, --rtol 1e-9: a row at each of the 120 samples, the end within 1e-6 of the converged run" \
+  '[ "$(awk -F, "NR>1{k=\$1/0.5; if(k==int(k)) n++} END{print n}" "$tmp/rwa.csv")" -ge 121 ] && paste -d, <(tail -1 "$tmp/rwa.csv") <(tail -1 "$tmp/rwref.csv") | awk -F, "{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-6) bad=1}} END{exit bad}"'
+"$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 \
+  --control-period 0.5 --rtol 1e-9 --atol 1e-9 --t-eval 0,0.25,0.5,30,59.75,60 --event axis-crossing --event-csv "$tmp/rwa_ev.csv" >"$tmp/rwt.csv" 2>/dev/null; rc=$?
+check "wheels + mrp-pd, --rtol with --t-eval across samples: exit 0, rows at exactly the 6 times, the end as the run without --t-eval" \
+  '[ $rc -eq 0 ] && [ "$(tail -n +2 "$tmp/rwt.csv" | cut -d, -f1 | tr "\n" " ")" = "0 0.25 0.5 30 59.75 60 " ] && [ "$(tail -1 "$tmp/rwt.csv" | cut -d, -f2-10)" = "$(tail -1 "$tmp/rwa.csv" | cut -d, -f2-10)" ] && [ -s "$tmp/rwa_ev.csv" ]'
 "$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --order 4 --every 600 >"$tmp/rw4.csv" 2>&1; rc=$?
 check "wheels + mrp-pd, --order 4 (composed simo-kappa): exit 0" '[ $rc -eq 0 ] && [ $(($(wc -l <"$tmp/rw4.csv") - 1)) -eq 2 ]'
 "$sim" $ctl --controller mrp-pd:1,5 --control-period 0.5 --target-rotation 0,0,0.3 --every 600 >"$tmp/pd.csv" 2>&1; rc=$?
@@ -293,7 +307,7 @@ for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--max-dipole 0.2 $pd|--max-dipole: only with --orbit-radius" \
            "--orbit-radius 0 $pd|--orbit-radius: must be > 0" \
            "--wheels $tmp/rw3.csv --mgl 1|a control run's scene has wheels" \
-           "--wheels $tmp/rw3.csv --rtol 1e-6|--rtol: not with --wheels"; do
+           "--wheels $tmp/rw3.csv --rtol 1e-6 --event nutation-max:terminal|--event nutation-max:terminal: not in a control run"; do
   flags=${bad%%|*}; want=${bad#*|}
   "$sim" $ctl $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
   check "control: exit 2, no rows, one line naming the field: $want" \

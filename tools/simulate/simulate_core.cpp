@@ -74,6 +74,63 @@ std::string method_text(const Config& c, const Scene& scene) {
          " (order " + std::to_string(c.order) + ")";
 }
 
+/// The driver's options from --rtol, --atol, --control, --tol-scope, --estimate, --substeps
+/// and --dt (the first step; none: the driver's rule); warns on `out` when --rtol was raised.
+inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c, RowSink& out) {
+  using namespace trompo;
+  const AdaptiveFlags& a = c.adaptive;
+  AdaptiveOptions<double> opt;
+  opt.rtol = a.rtol;
+  opt.atol = a.atol;
+  opt.control = a.control == "reversible" ? StepControl::reversible : StepControl::tolerance;
+  opt.tolerance_over_span = a.tol_scope == "span";
+  opt.estimate = a.estimate == "defect"       ? ErrorEstimate::defect
+                 : a.estimate == "doubling"   ? ErrorEstimate::doubling
+                 : a.estimate == "richardson" ? ErrorEstimate::richardson
+                                              : ErrorEstimate::automatic;
+  opt.substeps = a.substeps;
+  opt.first_step = c.dt ? std::abs(*c.dt) : 0.0;  // 0: the driver's rule (docs/adaptive.md)
+  if (a.rtol_asked)
+    out.message(format("warning: --rtol %g is below the round-off floor 100*eps = %.3g; raised to it (as SciPy does)",
+                       *a.rtol_asked, a.rtol));
+  return opt;
+}
+
+/// The events of --event on `scene`, then those given as code.
+template <class Scene>
+std::vector<trompo::Event<double>> adaptive_events(const Config& c, const Scene& scene) {
+  std::vector<trompo::Event<double>> ev;
+  for (const auto& [name, terminal] : c.adaptive.events) ev.push_back(trompo::events::by_name(scene, name, terminal));
+  for (const trompo::Event<double>& e : c.adaptive.code_events) ev.push_back(e);
+  return ev;
+}
+
+/// --event-csv opened with its header (nullptr without it).
+inline std::FILE* open_event_csv(const Config& c, const std::vector<trompo::Event<double>>& ev) {
+  const AdaptiveFlags& a = c.adaptive;
+  if (a.event_csv.empty()) return nullptr;
+  if (ev.empty()) throw invalid_input("--event-csv: needs at least one --event");
+  std::FILE* f = std::fopen(a.event_csv.c_str(), "w");
+  if (!f) throw invalid_input("--event-csv: cannot open '" + a.event_csv + "': " + std::strerror(errno));
+  std::fprintf(f, "event,%s", kHeader);
+  return f;
+}
+
+/// The summary line of an adaptive run (the Python module reads it: trompo/__init__.py).
+inline std::string adaptive_summary_text(const Config& c, const trompo::AdaptiveSummary<double>& sum,
+                                         const std::string& method) {
+  const AdaptiveFlags& a = c.adaptive;
+  return format("adaptive (%s, rtol %g, atol %g): %lld accepted, %lld rejected, %lld failed attempts, %lld Newton "
+                "iterations; %s; method %s%s",
+                a.control.c_str(), a.rtol, a.atol, static_cast<long long>(sum.accepted),
+                static_cast<long long>(sum.rejected), static_cast<long long>(sum.failures),
+                static_cast<long long>(sum.iterations),
+                sum.status == trompo::AdaptiveStatus::event ? "stopped by a terminal event"
+                : sum.ok()                                   ? "reached t_end"
+                                                             : sum.message(),
+                method.c_str(), a.picked ? ", picked for the scene and tolerance (docs/adaptive.md)" : "");
+}
+
 /// Runs `stepper` through trompo::integrate_adaptive (drivers/adaptive.hpp): rows at every
 /// --every-th accepted step (and the last), or at exactly the --t-eval times from the dense
 /// output; --event rows to --event-csv ("event," then the usual columns); one summary line.
@@ -86,30 +143,9 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     const AdaptiveFlags& a = c.adaptive;
     const auto& scene = stepper.scene();
     const V3 up = c.up.normalized();
-    AdaptiveOptions<double> opt;
-    opt.rtol = a.rtol;
-    opt.atol = a.atol;
-    opt.control = a.control == "reversible" ? StepControl::reversible : StepControl::tolerance;
-    opt.tolerance_over_span = a.tol_scope == "span";
-    opt.estimate = a.estimate == "defect"       ? ErrorEstimate::defect
-                   : a.estimate == "doubling"   ? ErrorEstimate::doubling
-                   : a.estimate == "richardson" ? ErrorEstimate::richardson
-                                                : ErrorEstimate::automatic;
-    opt.substeps = a.substeps;
-    opt.first_step = c.dt ? std::abs(*c.dt) : 0.0;  // 0: the driver's rule (docs/adaptive.md)
-    if (a.rtol_asked)
-      out.message(format("warning: --rtol %g is below the round-off floor 100*eps = %.3g; raised to it (as SciPy does)",
-                         *a.rtol_asked, a.rtol));
-    std::vector<Event<double>> ev;
-    for (const auto& [name, terminal] : a.events) ev.push_back(events::by_name(scene, name, terminal));
-    for (const Event<double>& e : a.code_events) ev.push_back(e);
-    if (!a.event_csv.empty() && ev.empty()) throw invalid_input("--event-csv: needs at least one --event");
-    std::FILE* event_file = nullptr;
-    if (!a.event_csv.empty()) {
-      event_file = std::fopen(a.event_csv.c_str(), "w");
-      if (!event_file) throw invalid_input("--event-csv: cannot open '" + a.event_csv + "': " + std::strerror(errno));
-      std::fprintf(event_file, "event,%s", kHeader);
-    }
+    const AdaptiveOptions<double> opt = adaptive_options(c, out);
+    std::vector<Event<double>> ev = adaptive_events(c, scene);
+    std::FILE* event_file = open_event_csv(c, ev);
     out.header();
     const bool at_times = !a.t_eval.empty();
     std::size_t next = 0;
@@ -149,16 +185,7 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     const AdaptiveSummary<double> sum = integrate_adaptive(stepper, s, *c.t_end, opt, observer, &ev, sink);
     if (!at_times && !(s.time == last_row)) row(s, static_cast<long>(sum.iterations));  // the end, always
     if (event_file) std::fclose(event_file);
-    out.message(format("adaptive (%s, rtol %g, atol %g): %lld accepted, %lld rejected, %lld failed attempts, %lld Newton "
-                       "iterations; %s; method %s%s",
-                       a.control.c_str(), a.rtol, a.atol, static_cast<long long>(sum.accepted),
-                       static_cast<long long>(sum.rejected), static_cast<long long>(sum.failures),
-                       static_cast<long long>(sum.iterations),
-                       sum.status == AdaptiveStatus::event ? "stopped by a terminal event"
-                       : sum.ok()                          ? "reached t_end"
-                                                           : sum.message(),
-                       method_text(c, scene).c_str(),
-                       a.picked ? ", picked for the scene and tolerance (docs/adaptive.md)" : ""));
+    out.message(adaptive_summary_text(c, sum, method_text(c, scene)));
     if (!sum.ok()) {
       out.flush();
       out.message(format("adaptive run failed at t = %.17g: %s", s.time, sum.message()));
@@ -489,6 +516,15 @@ struct ControlStepper {
   mutable long iterations = 0;
   Scene& scene() { return inner.scene(); }
   const Scene& scene() const { return inner.scene(); }
+  // what the adaptive driver asks of a stepper (--rtol between the samples)
+  int order() const { return inner.order(); }
+  auto keeps() const { return inner.keeps(); }
+  decltype(auto) scheme() const { return inner.scheme(); }
+  int stages() const
+    requires requires(const StepperT& x) { x.stages(); }
+  {
+    return inner.stages();
+  }
   auto start(const trompo::State<double>& s) const { return inner.start(s); }
   template <class StateT>
   trompo::StepReport<double> step(StateT& s, double h) const {
@@ -498,9 +534,44 @@ struct ControlStepper {
   }
 };
 
+/// Between the samples with --rtol: integrate_adaptive over each hold (a new run each hold,
+/// its first step from --dt, else the driver's rule), with the run's events, `nodes(a, b,
+/// t_next)` at each accepted step; the driver's counts summed over the holds in `total`.
+template <class Nodes, class Sink>
+struct HoldAdaptive {
+  const trompo::AdaptiveOptions<double>& options;
+  std::vector<trompo::Event<double>>* events;  ///< nullptr: none
+  Nodes& nodes;
+  Sink& sink;
+  trompo::AdaptiveSummary<double>* total;
+  template <class StepperT, class Traj, class Obs>
+  bool operator()(const StepperT& stepper, Traj& traj, double t_next, Obs&&, trompo::SampledSummary<double>& sum) const {
+    using namespace trompo;
+    auto observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const AdaptiveSummary<double>&) {
+      nodes(a, b, t_next);
+    };
+    const AdaptiveSummary<double> s = integrate_adaptive(stepper, traj, t_next, options, observer, events, sink);
+    total->accepted += s.accepted;
+    total->rejected += s.rejected;
+    total->failures += s.failures;
+    total->iterations += s.iterations;
+    total->status = s.status;
+    total->failure = s.failure;
+    total->time = s.time;
+    sum.steps += s.accepted;
+    sum.failures += s.failures;
+    sum.status = s.failure;
+    return s.ok();
+  }
+};
+
 /// Runs a control run with `st` by trompo::integrate_sampled: fixed steps of --dt between
-/// the samples; rows at t0, every --every-th grid point and the end, with the wheel columns.
-/// Returns 0, or 3 if a step failed or a command was refused (stderr names t and why).
+/// the samples, rows at t0, every --every-th grid point and the end; or (--rtol) adaptive
+/// steps over each hold (HoldAdaptive), rows at t0, every sample, every --every-th accepted
+/// step and the end, or at exactly the --t-eval times (each from its step's dense segment;
+/// a time on a sample is written after the new command is held), --event rows to
+/// --event-csv. The wheel columns with each row. Returns 0, or 3 if a step failed or a
+/// command was refused (stderr names t and why).
 template <class StepperT>
 int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowSink& out) {
   using namespace trompo;
@@ -509,7 +580,7 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
   const int n = stepper.scene().template effect<ReactionWheels<double>>().size();
   CliController ctrl = make_controller(c);
   // Without a controller one hold spans the run (the wheels at constant momentum).
-  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(*c.dt)));
+  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(c.dt.value_or(0.0))));
   const V3 up = c.up.normalized();
   out.wheel_header(n);
   long k = -1;
@@ -525,16 +596,67 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
     stepper.iterations = 0;
     last_row = x.time;
   };
-  auto observer = [&](const State<double>& x) {
-    if (++k % c.every == 0) row(x);
-  };
-  const SampledSummary<double> sum = integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt}, observer);
-  if (!(s.time == last_row)) row(s);  // the end, always
-  if (!sum.ok()) {
+  auto failed = [&](const std::string& why) {
     out.flush();
-    out.message(format("control run failed at t = %.17g: %s", s.time, sum.reason().c_str()));
+    out.message(format("control run failed at t = %.17g: %s", s.time, why.c_str()));
     return 3;
+  };
+  if (!c.adaptive.on) {
+    auto observer = [&](const State<double>& x) {
+      if (++k % c.every == 0) row(x);
+    };
+    const SampledSummary<double> sum =
+        integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt}, observer);
+    if (!(s.time == last_row)) row(s);  // the end, always
+    return sum.ok() ? 0 : failed(sum.reason());
   }
+  // ---- adaptive steps over each hold (--rtol) ----
+  const AdaptiveFlags& a = c.adaptive;
+  const AdaptiveOptions<double> opt = adaptive_options(c, out);
+  std::vector<Event<double>> ev = adaptive_events(c, stepper.scene());
+  std::FILE* event_file = open_event_csv(c, ev);
+  const bool at_times = !a.t_eval.empty();
+  std::size_t next = 0;  // the next --t-eval time
+  const double t_end = *c.t_end;
+  const bool forward = t_end >= s.time;
+  auto due = [&](double t) { return next < a.t_eval.size() && (forward ? a.t_eval[next] <= t : a.t_eval[next] >= t); };
+  auto sample = [&](const State<double>& x) {  // t0 and each sample, the new command held
+    if (!at_times) {
+      row(x);
+    } else if (next < a.t_eval.size() && a.t_eval[next] == x.time) {
+      row(x);
+      ++next;
+    }
+  };
+  auto nodes = [&](const DenseNode<double>& na, const DenseNode<double>& nb, double t_next) {
+    const double tb = nb.state.time;
+    const bool at_sample = tb == t_next && t_next != t_end;  // its row comes with the next command
+    if (!at_times) {
+      if (!at_sample && ++k % c.every == 0) row(nb.state);
+      return;
+    }
+    if (!due(tb)) return;
+    const LieHermite<double> seg(na, nb, opt.quintic);
+    while (due(tb) && !(at_sample && a.t_eval[next] == tb)) {
+      row(a.t_eval[next] == tb ? nb.state : seg.state(a.t_eval[next]));
+      ++next;
+    }
+  };
+  const auto& scene = stepper.scene();
+  auto sink = [&](int index, const State<double>& x, bool) {
+    if (!event_file) return;
+    std::fprintf(event_file, "%s,", ev[static_cast<std::size_t>(index)].name.c_str());
+    CsvSink(event_file).row(x.time, x.rotation.matrix(), x.omega, scene.energy(x), up.dot(scene.spatial_momentum(x)),
+                            scene.spatial_momentum(x), 0);
+  };
+  AdaptiveSummary<double> total;
+  const HoldAdaptive<decltype(nodes), decltype(sink)> between{opt, ev.empty() ? nullptr : &ev, nodes, sink, &total};
+  const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, period, ctrl, between, sample);
+  if (!at_times && !(s.time == last_row)) row(s);  // the end, always
+  if (event_file) std::fclose(event_file);
+  if (!sum.command_error.empty()) return failed(sum.reason());
+  out.message(adaptive_summary_text(c, total, method_text(c, scene)));
+  if (!total.ok()) return failed(total.message());
   return 0;
 }
 

@@ -383,12 +383,16 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
     throw invalid_input(by + ": a control run's scene has wheels, a held torque and magnetorquers only (no --mgl, "
                              "--damping, --torque, --space-torque, --rotor or --gravity-gradient)");
   if (!c.ensemble.empty()) throw invalid_input(by + ": not with --ensemble");
-  if (c.adaptive.on) throw invalid_input("--rtol: not with " + by + " (fixed steps of --dt between the samples)");
+  // --rtol: adaptive steps between the samples, each hold a new run (docs/control.md); a
+  // terminal event would end a hold, not the run: refused.
+  if (c.adaptive.on)
+    for (const auto& [name, terminal] : c.adaptive.events)
+      if (terminal > 0) throw invalid_input("--event " + name + ":terminal: not in a control run (non-terminal events only)");
   if (c.processed) throw invalid_input("--composition blanes-casas-murua-13: not with " + by);
   if (!k.controller.empty() && !k.period) throw invalid_input("--controller: needs --control-period");
   if (k.period && k.controller.empty()) throw invalid_input("--control-period: needs --controller");
   if (k.period && !(*k.period > 0)) throw invalid_input("--control-period: must be > 0, got " + flags.at("--control-period"));
-  if (k.period && *k.period < std::abs(*c.dt))
+  if (k.period && c.dt && *k.period < std::abs(*c.dt))
     throw invalid_input("--control-period: " + flags.at("--control-period") + " is shorter than the step --dt " +
                         std::to_string(std::abs(*c.dt)));
   if (k.target && k.controller != "mrp-pd") throw invalid_input("--target-rotation: only with --controller mrp-pd");

@@ -330,7 +330,7 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
     }
   }
 
-  EnsembleRun run{in, {}, {}, {}, {}, {}};
+  EnsembleRun run(in);
   std::string error;
   {
     py::gil_scoped_release no_gil;
@@ -350,10 +350,10 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
   for (std::size_t i = 0; i < n; ++i) {
     const auto& s = run.states[i];
     rows.row(s.time, s.rotation.matrix(), s.omega, run.energy[i], run.momentum_map[i], run.spatial_momentum[i],
-             static_cast<long>(run.summaries[i].iterations));
-    recovered[i] = run.summaries[i].recovered;
-    status.append(run.summaries[i].reason());
-    ok[i] = run.summaries[i].ok();
+             static_cast<long>(run.iterations(i)));
+    recovered[i] = run.summaries.empty() ? 0 : run.summaries[i].recovered;
+    status.append(run.reason(i));
+    ok[i] = run.ok(i);
   }
   py::dict d = rows_of(rows);
   py::array_t<bool> ok_array(static_cast<py::ssize_t>(n));
@@ -361,6 +361,53 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
   d["ok"] = ok_array;
   d["status"] = status;
   d["recovered"] = to_array(std::move(recovered), {static_cast<py::ssize_t>(n)});
+  py::list messages;
+  for (const auto& m : run.messages) messages.append(m);
+  d["messages"] = messages;
+  if (run.adaptive.empty()) return d;
+  // ---- adaptive members (--rtol): the driver's counts, the states at t_eval, the events ----
+  const auto N = static_cast<py::ssize_t>(n);
+  std::vector<std::int64_t> accepted(n), rejected(n), failures(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    accepted[i] = run.adaptive[i].accepted;
+    rejected[i] = run.adaptive[i].rejected;
+    failures[i] = run.adaptive[i].failures;
+  }
+  d["nsteps"] = to_array(std::move(accepted), {N});
+  d["nreject"] = to_array(std::move(rejected), {N});
+  d["nfail"] = to_array(std::move(failures), {N});
+  // y of member i at t_eval: (12, m), Λ row-major then Ω, as solve_ivp's; NaN past a failure
+  auto columns = [](const trompo::State<double>& s, double* y, std::size_t stride, std::size_t k) {
+    const M3 L = s.rotation.matrix();
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) y[static_cast<std::size_t>(3 * a + b) * stride + k] = L(a, b);
+    for (int a = 0; a < 3; ++a) y[static_cast<std::size_t>(9 + a) * stride + k] = s.omega(a);
+  };
+  const std::size_t m = c.adaptive.t_eval.size();
+  if (m > 0) {
+    std::vector<double> y(n * 12 * m, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t k = 0; k < run.at_times[i].size() && k < m; ++k) columns(run.at_times[i][k], y.data() + i * 12 * m, m, k);
+    d["y_eval"] = to_array(std::move(y), {N, 12, static_cast<py::ssize_t>(m)});
+  }
+  py::list t_events, y_events;
+  for (std::size_t i = 0; i < n; ++i) {
+    py::list ti, yi;
+    for (const auto& found : run.events[i]) {
+      const std::size_t k = found.size();
+      std::vector<double> t(k), yy(k * 12);
+      for (std::size_t j = 0; j < k; ++j) {
+        t[j] = found[j].time;
+        columns(found[j], yy.data() + 12 * j, 1, 0);  // row j: the 12 numbers
+      }
+      ti.append(to_array(std::move(t), {static_cast<py::ssize_t>(k)}));
+      yi.append(to_array(std::move(yy), {static_cast<py::ssize_t>(k), 12}));
+    }
+    t_events.append(ti);
+    y_events.append(yi);
+  }
+  d["t_events"] = t_events;
+  d["y_events"] = y_events;
   return d;
 }
 

@@ -84,3 +84,29 @@ def test_bad_input_is_a_value_error(args, kwargs, message):
     with pytest.raises(ValueError) as e:
         trompo.ensemble(*args, **{"case": "ht1", "t_end": 0.01, **kwargs})
     assert str(e.value).startswith(message)
+
+
+def test_adaptive_members_are_their_single_runs():
+    """rtol: adaptive members (issue: ensembles with tolerances, t_eval and events), each
+    bit-identical to solve_ivp's run of that member, whatever the threads; per-member
+    inertia from an array."""
+    rng = np.random.default_rng(11)
+    n = 6
+    rotation = rng.normal(scale=0.5, size=(n, 3))
+    omega = rng.normal(scale=2.0, size=(n, 3))
+    inertia = np.array([[1.0, 1.0, 0.4]] * n) * rng.uniform(0.8, 1.2, size=(n, 1))
+    t_eval = [0.0, 0.25, 0.5, 1.0]
+    run = dict(case="ht1", scheme="simo-kappa", order=4, rtol=1e-8, atol=1e-8, t_end=1.0)
+    for threads in (1, 3):
+        ens = trompo.ensemble(rotation, omega, inertia=inertia, t_eval=t_eval, events=["nutation-max"], threads=threads,
+                              **run)
+        assert ens["y_eval"].shape == (n, 12, 4) and ens["ok"].all()
+        for i in range(n):
+            one = trompo.solve_ivp("ht1", (0, 1), rtol=1e-8, atol=1e-8, t_eval=t_eval, events=["nutation-max"],
+                                   scheme="simo-kappa", order=4, inertia=inertia[i], rotation=rotation[i], omega=omega[i])
+            assert np.array_equal(ens["y_eval"][i], one.y), (threads, i)
+            assert np.array_equal(ens["R"][i], one.R[-1]) and np.array_equal(ens["W"][i], one.W[-1])
+            assert ens["nsteps"][i] == one.nsteps and ens["nreject"][i] == one.nreject
+            assert np.array_equal(ens["t_events"][i][0], one.t_events[0])
+            assert np.array_equal(ens["y_events"][i][0], one.y_events[0])
+    assert sum(len(ens["t_events"][i][0]) for i in range(n)) > 0  # the events did occur

@@ -437,14 +437,17 @@ def _dense_solution(run, kwargs, t0, t_first, t_last, code_events=None):
 
 def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, scheme=None, alpha=None, order=None,
              composition=None, com=None, up=None, dt=None, t_end=None, damping=None, torque=None,
-             space_torque=None, rotor=None, threads=0, progress=False, **flags):
+             space_torque=None, rotor=None, threads=0, progress=False, events=None, **flags):
     """N independent trajectories from t = 0 to ``t_end``, across ``threads`` cores (0: all).
 
     ``rotation`` (N,3) or (N,3,3), ``omega`` (N,3), ``scene`` a trompo.Scene shared by the
     members (or ``case`` a name), optional per-member ``mgl`` and ``inertia`` arrays; the
-    other keywords are simulate()'s. Returns a dict of arrays, one entry per member, each
-    bit-identical to its single run; a failed member raises nothing (``ok``, ``status``).
-    docs/python.md, "Python: trompo.ensemble".
+    other keywords are simulate()'s. Fixed steps of ``dt``, or with ``rtol`` (``atol``,
+    ``t_eval``, built-in ``events`` by name) adaptive members: then also ``nsteps``,
+    ``nreject``, ``nfail`` (N,), ``y_eval`` (N, 12, len(t_eval)) as solve_ivp's ``y`` per
+    member, ``t_events``/``y_events`` per member. Returns a dict of arrays, one entry per
+    member, each bit-identical to its single run; a failed member raises nothing (``ok``,
+    ``status``). docs/python.md, "Python: trompo.ensemble".
     """
     kwargs = dict(case=case, scheme=scheme, alpha=alpha, order=order, composition=composition, com=com, up=up,
                   dt=dt, t_end=t_end, damping=damping, torque=torque, space_torque=space_torque, rotor=rotor,
@@ -452,7 +455,12 @@ def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, 
     for name in ("ensemble", "csv", "every"):
         if name in flags:
             raise TypeError(f"ensemble: {name!r} is not for ensemble")
-    _check_keywords("ensemble", flags, ("rotation", "omega", "scene", "mgl", "inertia", "progress"))
+    _check_keywords("ensemble", flags, ("rotation", "omega", "scene", "mgl", "inertia", "progress", "events"))
+    if events is not None:  # built-in names only (a Python g would serialise the threads)
+        names = [events] if isinstance(events, str) else list(events)
+        if not all(isinstance(e, str) for e in names):
+            raise TypeError("ensemble(): events are built-in names (nutation-max, nutation-min, axis-crossing, flip)")
+        kwargs["event"] = ";".join(names)
     if scene is not None:
         if not isinstance(scene, Scene):
             raise TypeError(f"ensemble(): scene must be a trompo.Scene, got {scene!r}")
@@ -469,7 +477,12 @@ def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, 
         mgl = np.asarray(mgl, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
-    run = _ensemble_in_python_words
+    def run(*args):
+        out = _ensemble_in_python_words(*args)
+        for m in out.pop("messages"):
+            if m.startswith(_WARNING):
+                warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=3)
+        return out
     if not progress:
         return run(flags, rotation, omega, mgl, inertia)
     report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))

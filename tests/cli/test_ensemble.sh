@@ -31,6 +31,18 @@ done < <(grep -v -e '^#' -e '^rotation' "$tmp/members.csv")
 "$sim" --case ht1 --t-end 0.5 --ensemble "$tmp/members.csv" --threads 1 --csv "$tmp/e1.csv"; rc=$?
 check "--threads 1 and 2 write the same bytes (--csv)" '[ $rc -eq 0 ] && cmp -s "$tmp/e1.csv" "$tmp/e2.csv"'
 
+# Adaptive members (--rtol): each the last row of its single adaptive run, for 1 and 2
+# threads; --t-eval has no place in one row per member and is refused.
+"$sim" --case ht1 --t-end 0.5 --scheme simo-kappa --order 4 --rtol 1e-9 --atol 1e-9 --ensemble "$tmp/members.csv" --threads 2 >"$tmp/a2.csv" 2>"$tmp/a2.err"; rc=$?
+"$sim" --case ht1 --t-end 0.5 --scheme simo-kappa --order 4 --rtol 1e-9 --atol 1e-9 --ensemble "$tmp/members.csv" --threads 1 >"$tmp/a1.csv"
+check "adaptive members: exit 0, every member ok, 1 and 2 threads the same bytes" \
+  '[ $rc -eq 0 ] && [ ! -s "$tmp/a2.err" ] && awk -F, "NR>1 && (\$2 != 0.5 || \$21 != \"ok\") {bad=1} END{exit bad}" "$tmp/a2.csv" && cmp -s "$tmp/a1.csv" "$tmp/a2.csv"'
+"$sim" --case ht1 --t-end 0.5 --scheme simo-kappa --order 4 --rtol 1e-9 --atol 1e-9 --rotation 0.3,-0.02,0.1 --omega 0.5,0,60 --mgl 15 >"$tmp/asingle.csv" 2>/dev/null
+check "adaptive member 3 = last row of its single adaptive run, bit for bit" \
+  '[ "$(sed -n 5p "$tmp/a2.csv" | cut -d, -f2-19)" = "$(tail -1 "$tmp/asingle.csv" | cut -d, -f1-18)" ]'
+"$sim" --case ht1 --t-end 0.5 --rtol 1e-9 --t-eval 0.25 --ensemble "$tmp/members.csv" >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+check "--t-eval with --ensemble FILE: exit 2, named" '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && grep -qF -- "--t-eval: not with --ensemble FILE" "$tmp/bad.err"'
+
 # The processed composition: members run without an observer (one post-processing at the
 # end), the single run post-processes every row; the output depends on the kernel alone.
 "$sim" --case ht1 --t-end 0.5 --composition blanes-casas-murua-13 --ensemble "$tmp/members.csv" >"$tmp/p6.csv"; rc=$?

@@ -74,9 +74,15 @@ std::string method_text(const Config& c, const Scene& scene) {
          " (order " + std::to_string(c.order) + ")";
 }
 
+/// The warning of an --rtol raised to its floor.
+inline std::string rtol_warning(const Config& c) {
+  return format("warning: --rtol %g is below the round-off floor 100*eps = %.3g; raised to it (as SciPy does)",
+                *c.adaptive.rtol_asked, c.adaptive.rtol);
+}
+
 /// The driver's options from --rtol, --atol, --control, --tol-scope, --estimate, --substeps
-/// and --dt (the first step; none: the driver's rule); warns on `out` when --rtol was raised.
-inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c, RowSink& out) {
+/// and --dt (the first step; none: the driver's rule).
+inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c) {
   using namespace trompo;
   const AdaptiveFlags& a = c.adaptive;
   AdaptiveOptions<double> opt;
@@ -90,9 +96,6 @@ inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c, RowSink
                                               : ErrorEstimate::automatic;
   opt.substeps = a.substeps;
   opt.first_step = c.dt ? std::abs(*c.dt) : 0.0;  // 0: the driver's rule (docs/adaptive.md)
-  if (a.rtol_asked)
-    out.message(format("warning: --rtol %g is below the round-off floor 100*eps = %.3g; raised to it (as SciPy does)",
-                       *a.rtol_asked, a.rtol));
   return opt;
 }
 
@@ -143,7 +146,8 @@ int run_adaptive(const StepperT& stepper, const Config& c, trompo::State<double>
     const AdaptiveFlags& a = c.adaptive;
     const auto& scene = stepper.scene();
     const V3 up = c.up.normalized();
-    const AdaptiveOptions<double> opt = adaptive_options(c, out);
+    const AdaptiveOptions<double> opt = adaptive_options(c);
+    if (a.rtol_asked) out.message(rtol_warning(c));
     std::vector<Event<double>> ev = adaptive_events(c, scene);
     std::FILE* event_file = open_event_csv(c, ev);
     out.header();
@@ -612,7 +616,8 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
   }
   // ---- adaptive steps over each hold (--rtol) ----
   const AdaptiveFlags& a = c.adaptive;
-  const AdaptiveOptions<double> opt = adaptive_options(c, out);
+  const AdaptiveOptions<double> opt = adaptive_options(c);
+  if (a.rtol_asked) out.message(rtol_warning(c));
   std::vector<Event<double>> ev = adaptive_events(c, stepper.scene());
   std::FILE* event_file = open_event_csv(c, ev);
   const bool at_times = !a.t_eval.empty();
@@ -975,8 +980,38 @@ trompo::Stepper<trompo::SplittingScheme<EnergyProjection>, SceneT> with_scene(
   return trompo::Stepper<trompo::SplittingScheme<EnergyProjection>, SceneT>(scheme, std::move(scene), st.options());
 }
 
+/// One adaptive member (--rtol): the driver from `s` to t_end with the member's events,
+/// keeping the states at --t-eval (from each step's dense segment, as run_adaptive writes
+/// them) and the events' states; `s` ends at the member's final state. The same steps as
+/// the single run's (the same options, an observer as run_adaptive has).
+template <class StepperT>
+trompo::AdaptiveSummary<double> run_member(const StepperT& stepper, const Config& c, const trompo::AdaptiveOptions<double>& opt,
+                                           trompo::State<double>& s, std::vector<trompo::State<double>>& at_times,
+                                           std::vector<std::vector<trompo::State<double>>>& found) {
+  using namespace trompo;
+  const std::vector<double>& t_eval = c.adaptive.t_eval;
+  std::vector<Event<double>> ev = adaptive_events(c, stepper.scene());
+  found.assign(ev.size(), {});
+  std::size_t next = 0;
+  if (!t_eval.empty() && t_eval[0] == s.time) {
+    at_times.push_back(s);
+    next = 1;
+  }
+  const bool forward = *c.t_end >= s.time;
+  auto observer = [&](const DenseNode<double>& na, const DenseNode<double>& nb) {
+    const double tb = nb.state.time;
+    auto due = [&] { return next < t_eval.size() && (forward ? t_eval[next] <= tb : t_eval[next] >= tb); };
+    if (!due()) return;
+    const LieHermite<double> seg(na, nb, opt.quintic);
+    for (; due(); ++next) at_times.push_back(t_eval[next] == tb ? nb.state : seg.state(t_eval[next]));
+  };
+  auto sink = [&](int index, const State<double>& x, bool) { found[static_cast<std::size_t>(index)].push_back(x); };
+  return integrate_adaptive(stepper, s, *c.t_end, opt, observer, ev.empty() ? nullptr : &ev, sink);
+}
+
 /// The ensemble counterpart of run(): every member from t = 0 to t_end by integrate_ensemble
-/// (--threads), one shared stepper unless members carry their own mgl or inertia.
+/// (--threads), or with --rtol by run_member on integrate_ensemble's schedule; one shared
+/// stepper unless members carry their own mgl or inertia.
 template <class StepperT>
 int run(const StepperT& stepper, const Config& c, const trompo::State<double>&, EnsembleRun& e) {
   using SceneT = typename StepperT::Scene;
@@ -989,11 +1024,27 @@ int run(const StepperT& stepper, const Config& c, const trompo::State<double>&, 
   }
   const trompo::EnsembleOptions options{.threads = c.threads};
   std::vector<StepperT> steppers;
-  if (in.mgl.empty() && in.inertia.empty()) {
-    e.summaries = trompo::integrate_ensemble(stepper, e.states, *c.t_end, *c.dt, options);
-  } else {
+  if (!in.mgl.empty() || !in.inertia.empty()) {
     steppers.reserve(n);
     for (std::size_t i = 0; i < n; ++i) steppers.push_back(with_scene(c, stepper, member_scene<SceneT>(c, in, i)));
+  }
+  if (c.adaptive.on) {
+    if constexpr (trompo::detail::is_processed<StepperT>()) {
+      throw invalid_input("--rtol: the processed composition's processor is tied to h: use --order 6");
+    } else {
+      const trompo::AdaptiveOptions<double> opt = adaptive_options(c);
+      if (c.adaptive.rtol_asked) e.messages.push_back(rtol_warning(c));
+      e.adaptive.assign(n, {});
+      e.at_times.assign(n, {});
+      e.events.assign(n, {});
+      trompo::detail::for_each_member(n, options, [&](std::size_t i) {
+        e.adaptive[i] =
+            run_member(steppers.empty() ? stepper : steppers[i], c, opt, e.states[i], e.at_times[i], e.events[i]);
+      });
+    }
+  } else if (steppers.empty()) {
+    e.summaries = trompo::integrate_ensemble(stepper, e.states, *c.t_end, *c.dt, options);
+  } else {
     e.summaries = trompo::integrate_ensemble(steppers, e.states, *c.t_end, *c.dt, options);
   }
   const V3 up = c.up.normalized();
@@ -1108,7 +1159,7 @@ void write_ensemble(std::FILE* out, const EnsembleRun& e) {
       for (int k = 0; k < 3; ++k) std::fprintf(out, ",%.17g", R(r, k));
     std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%s\n", s.omega.x(), s.omega.y(),
                  s.omega.z(), e.energy[i], e.momentum_map[i], pi.x(), pi.y(), pi.z(),
-                 static_cast<long long>(e.summaries[i].iterations), e.summaries[i].reason());
+                 e.iterations(i), e.reason(i).c_str());
   }
 }
 

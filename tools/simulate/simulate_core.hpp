@@ -439,7 +439,6 @@ inline void check_adaptive(Config& c, const std::map<std::string, std::string>& 
     throw invalid_input("--substeps: Richardson's steps per attempt; --estimate defect takes none");
   if (flags.count("--substeps") && a.estimate == "doubling" && a.substeps != 2)
     throw invalid_input("--substeps: --estimate doubling takes 2, got " + flags.at("--substeps"));
-  if (!c.ensemble.empty()) throw invalid_input("--rtol: adaptive steps are not available with --ensemble");
   if (c.scheme == "exact") throw invalid_input("--rtol: --scheme exact has no steps to adapt (use --t-eval with a scheme)");
   if (c.processed)
     throw invalid_input("--rtol: the processed composition's processor is tied to h (each change of h costs 24 base "
@@ -588,16 +587,37 @@ struct EnsembleInput {
   std::size_t size() const { return rotation.size(); }
 };
 
-/// An ensemble in place of a RowSink: the members in, their final states out.
+/// An ensemble in place of a RowSink: the members in, their final states out; with --rtol
+/// (adaptive members) each member's states at --t-eval and its events too.
 struct EnsembleRun {
+  explicit EnsembleRun(const EnsembleInput& in) : input(in) {}
   const EnsembleInput& input;
   std::vector<trompo::State<double>> states;                 ///< final (or last good) state of each member
-  std::vector<trompo::IntegrationSummary<double>> summaries;  ///< what integrate did for each
+  std::vector<trompo::IntegrationSummary<double>> summaries;  ///< what integrate did for each (fixed steps)
   std::vector<double> energy;                                 ///< H of the final state, on the member's scene
   std::vector<double> momentum_map;                           ///< μ = up·π
   std::vector<V3> spatial_momentum;                           ///< π
+  // ---- adaptive members (--rtol) ----
+  std::vector<trompo::AdaptiveSummary<double>> adaptive;      ///< what the adaptive driver did for each
+  std::vector<std::vector<trompo::State<double>>> at_times;   ///< each member's states at --t-eval
+  /// Each member's events: per --event, the states where it occurred.
+  std::vector<std::vector<std::vector<trompo::State<double>>>> events;
+  std::vector<std::string> messages;                          ///< warnings (an rtol raised to its floor)
+  /// Whether member i reached t_end.
+  bool ok(std::size_t i) const { return adaptive.empty() ? summaries[i].ok() : adaptive[i].ok(); }
+  /// Why member i stopped ("ok" when it did not).
+  std::string reason(std::size_t i) const {
+    if (adaptive.empty()) return summaries[i].reason();
+    return adaptive[i].ok() ? "ok" : adaptive[i].message();
+  }
+  /// Newton iterations of member i.
+  long long iterations(std::size_t i) const {
+    return static_cast<long long>(adaptive.empty() ? summaries[i].iterations : adaptive[i].iterations);
+  }
   std::size_t failed() const {
-    return static_cast<std::size_t>(std::count_if(summaries.begin(), summaries.end(), [](const auto& s) { return !s.ok(); }));
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < states.size(); ++i) n += !ok(i);
+    return n;
   }
 };
 

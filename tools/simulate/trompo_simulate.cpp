@@ -25,11 +25,15 @@ int run_ensemble_file(const Config& c, std::FILE*& out) {
     out = std::fopen(c.csv.c_str(), "w");
     if (!out) throw invalid_input("--csv: cannot open '" + c.csv + "': " + std::strerror(errno));
   }
-  EnsembleRun run{input, {}, {}, {}, {}, {}};
+  if (!c.adaptive.t_eval.empty() || !c.adaptive.events.empty())
+    throw invalid_input(std::string(c.adaptive.t_eval.empty() ? "--event" : "--t-eval") +
+                        ": not with --ensemble FILE (one row per member; trompo.ensemble gives them from Python)");
+  EnsembleRun run(input);
   const int code = simulate(c, run);
+  for (const std::string& m : run.messages) std::fprintf(stderr, "trompo-simulate: %s\n", m.c_str());
   write_ensemble(out, run);
   long long recovered = 0, members_recovered = 0;
-  for (const auto& s : run.summaries) {
+  for (const auto& s : run.summaries) {  // fixed steps only (adaptive members have no recovery)
     recovered += s.recovered;
     members_recovered += s.recovered > 0;
   }
@@ -39,11 +43,10 @@ int run_ensemble_file(const Config& c, std::FILE*& out) {
   if (const std::size_t failed = run.failed()) {
     std::fflush(out);
     std::size_t first = 0;
-    while (run.summaries[first].ok()) ++first;
-    std::fprintf(stderr,
-                 "trompo-simulate: %zu of %zu member(s) failed, not recovered by sub-stepping; first: member %zu at t = "
-                 "%.17g: %s\n",
-                 failed, run.states.size(), first, run.states[first].time, run.summaries[first].reason());
+    while (run.ok(first)) ++first;
+    std::fprintf(stderr, "trompo-simulate: %zu of %zu member(s) failed%s; first: member %zu at t = %.17g: %s\n", failed,
+                 run.states.size(), run.adaptive.empty() ? ", not recovered by sub-stepping" : "", first,
+                 run.states[first].time, run.reason(first).c_str());
   }
   return code;
 }

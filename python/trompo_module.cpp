@@ -270,7 +270,7 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
 
 /// The ensemble: members from arrays, final states out as arrays.
 py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const Array& rotation, const Array& omega,
-                        const std::optional<Array>& mgl, const std::optional<Array>& inertia) {
+                        const std::optional<Array>& mgl, const std::optional<Array>& inertia, const py::object& progress) {
   const Config c = config_of(flags);
   auto shape = [](const Array& a) {
     std::string s = "(";
@@ -331,6 +331,24 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
   }
 
   EnsembleRun run(in);
+  py::object progress_raised = py::none();  // the progress function's exception, raised after the run
+  if (!progress.is_none()) {
+    // Called from the thread that finished a chunk, one call at a time, with the GIL taken;
+    // held by pointer (the caller keeps it alive for the run). After an exception it is not
+    // called again.
+    PyObject* fn = progress.ptr();
+    py::object* raised = &progress_raised;
+    run.progress = [fn, raised](std::size_t done, std::size_t total) {
+      py::gil_scoped_acquire gil;
+      if (!raised->is_none()) return;
+      try {
+        py::reinterpret_borrow<py::object>(fn)(done, total);
+      } catch (py::error_already_set& e) {
+        *raised = e.value();
+        if (e.trace()) PyException_SetTraceback(raised->ptr(), e.trace().ptr());
+      }
+    };
+  }
   std::string error;
   {
     py::gil_scoped_release no_gil;
@@ -341,6 +359,10 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
     }
   }
   if (!error.empty()) throw py::value_error(error);
+  if (!progress_raised.is_none()) {
+    PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(progress_raised.ptr())), progress_raised.ptr());
+    throw py::error_already_set();
+  }
 
   ArraySink rows;
   rows.reserve(n);
@@ -597,7 +619,7 @@ PYBIND11_MODULE(_trompo, m) {
         "[(name, g(t, y), direction, terminal), ...], an initial rotation matrix and torque laws "
         "(body, body jacobian, space, space jacobian); returns (status, rows, messages).");
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
-        py::arg("mgl") = py::none(), py::arg("inertia") = py::none(),
+        py::arg("mgl") = py::none(), py::arg("inertia") = py::none(), py::arg("progress") = py::none(),
         "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
   m.def("control_run", &control_run, py::arg("flags"), py::arg("wheels"), py::arg("limits"), py::arg("rotation"),
         py::arg("omega"), py::arg("target") = py::none(), py::arg("controller") = py::none(),

@@ -2,6 +2,7 @@
 // run with its stepper, for 1, 2 and 3 threads; a failing member stops alone, at the
 // state its single run stops at; per-member scenes; a scheme with memory; bad input
 // thrown before any step; allocations that do not grow with the number of steps.
+#include <algorithm>
 #include "support/allocation_counter.hpp"  // first: it replaces operator new/delete
 
 #include <catch2/catch.hpp>
@@ -65,6 +66,32 @@ TEST_CASE("ensemble: each member is bit-identical to its single integrate run, f
       CHECK(same_bits(members[i], single[i]));
       CHECK(same_summary(sums[i], single_sum[i]));
     }
+  }
+}
+
+TEST_CASE("ensemble: progress is called once a chunk, done increasing to n, and changes no member", "[ensemble]") {
+  const auto ht1 = cases::ht1<double>();
+  const Stepper<SimoKappa, Top> stepper(SimoKappa{}, ht1.scene);
+  const auto start = ht1_members(7);
+  auto quiet = start;
+  (void)integrate_ensemble(stepper, quiet, 0.1, 0.001, {.threads = 2, .chunk = 2});
+  for (unsigned threads : {1u, 2u, 3u}) {
+    INFO("threads " << threads);
+    std::vector<std::size_t> seen;  // progress calls are serialised: no lock needed here
+    std::size_t total = 0;
+    auto members = start;
+    EnsembleOptions options{.threads = threads, .chunk = 2};
+    options.progress = [&](std::size_t done, std::size_t n) {
+      seen.push_back(done);
+      total = n;
+    };
+    (void)integrate_ensemble(stepper, members, 0.1, 0.001, options);
+    REQUIRE(seen.size() == 4);  // chunks of 2, 2, 2, 1
+    CHECK(total == 7);
+    CHECK(std::is_sorted(seen.begin(), seen.end()));
+    CHECK(seen.front() >= 1);
+    CHECK(seen.back() == 7);
+    for (std::size_t i = 0; i < members.size(); ++i) CHECK(same_bits(members[i], quiet[i]));
   }
 }
 

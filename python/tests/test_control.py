@@ -315,6 +315,15 @@ def test_adaptive_steps_between_the_samples():
     assert len(at.t_events[0]) >= 1
     for t, y in zip(at.t_events[0], at.y_events[0]):
         assert abs(y[9]) <= 1e-12 and 1 < t < 20
+    # dense output across the samples: the run again with rows at t (a Python controller from
+    # a fresh memory), so sol(t) is the t_eval run's row at t, bit for bit
+    dense = trompo.control(sc, s0, 20.0, controller=mrp_pd(3.5, 30.0), dense_output=True, **run)
+    y = dense.sol([0.05, 10.0, 20.0])
+    assert y.shape == (12, 3)
+    for k, j in enumerate((1, 3, 4)):
+        np.testing.assert_array_equal(y[:9, k], at.R[j].ravel())
+        np.testing.assert_array_equal(y[9:, k], at.W[j])
+    np.testing.assert_array_equal(dense.sol(20.0)[:9], builtin.R[-1].ravel())
     with pytest.raises(ValueError, match="^t_eval: only with adaptive steps"):
         trompo.control(sc, s0, 1.0, controller=trompo.MrpPd(K=3.5, P=30), period=0.1, dt=0.05, t_eval=[0.5])
     with pytest.raises(ValueError, match="^dt: required"):

@@ -151,7 +151,8 @@ def test_ensemble_progress_same_bits():
     seen = []
     a = trompo.ensemble(rotation, omega, case="ht1", t_end=0.2, threads=2)
     b = trompo.ensemble(rotation, omega, case="ht1", t_end=0.2, threads=2, progress=lambda k, n: seen.append((k, n)))
-    assert seen[-1] == (25, 25) and len(seen) == 13
+    # one call a chunk (25 members on 2 threads: chunks of 1), done increasing to N
+    assert seen[-1] == (25, 25) and len(seen) == 25 and [k for k, _ in seen] == sorted(k for k, _ in seen)
     for key in a:
         assert np.array_equal(np.asarray(a[key]), np.asarray(b[key])), key
 

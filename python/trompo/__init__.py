@@ -477,36 +477,19 @@ def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, 
         mgl = np.asarray(mgl, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
-    def run(*args):
-        out = _ensemble_in_python_words(*args)
-        for m in out.pop("messages"):
-            if m.startswith(_WARNING):
-                warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=3)
-        return out
-    if not progress:
-        return run(flags, rotation, omega, mgl, inertia)
-    report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))
-    n = len(rotation)
-    size = max(1, -(-n // 20))
-    parts = []
-    for lo in range(0, n, size):
-        hi = min(n, lo + size)
-        parts.append(run(flags, rotation[lo:hi], omega[lo:hi], None if mgl is None else mgl[lo:hi],
-                                     None if inertia is None else inertia[lo:hi]))
-        report(hi, n)
-    if not parts:  # N = 0: the engine's own error
-        return run(flags, rotation, omega, mgl, inertia)
-    out = {}
-    for key, first in parts[0].items():
-        out[key] = [x for p in parts for x in p[key]] if isinstance(first, list) else np.concatenate([p[key] for p in parts])
-    return out
-
-
-def _ensemble_in_python_words(flags, rotation, omega, mgl, inertia):
+    # progress: called by C++ after each chunk of members (done, n), from the thread that
+    # finished it, one call at a time; True prints a line on stderr.
+    report = None
+    if progress:
+        report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))
     try:
-        return _ensemble_flags(flags, rotation, omega, mgl, inertia)
+        out = _ensemble_flags(flags, rotation, omega, mgl, inertia, report)
     except ValueError as e:
         raise ValueError(_python_words(str(e))) from None
+    for m in out.pop("messages"):
+        if m.startswith(_WARNING):
+            warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=2)
+    return out
 
 
 def usage():
@@ -673,13 +656,14 @@ class CommandError(ControlError, ValueError):
 
 
 def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6, t_eval=None, events=None,
-            scheme="simo-kappa", order=2, every=1):
+            dense_output=False, scheme="simo-kappa", order=2, every=1):
     """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
     or a Python callable ``f(t, R, W, wheel_speeds, memory)`` returning a dict of commands)
     sampled every ``period``, its commands held in between: fixed steps of ``dt``, or with
     ``rtol`` adaptive steps over each hold (``dt`` the first step, optional), rows at
     ``t_eval`` and ``events`` (non-terminal: built-in names or callables g(t, y)) as
-    solve_ivp's, across the samples.
+    solve_ivp's, across the samples; ``dense_output``: ``res.sol(t)`` as solve_ivp's (the
+    run again with rows at t, a Python controller starting from a fresh memory).
 
     Returns a ControlResult; raises ValueError, CommandError, ControlError or StepFailed,
     carrying the rows so far. docs/python.md, "Control in the loop from Python".
@@ -696,8 +680,9 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
     period = _finite("period", period, positive=True)
     if dt is not None and period < dt:
         raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
-    if rtol is None and (t_eval is not None or events is not None):
-        raise ValueError(f"{'t_eval' if t_eval is not None else 'events'}: only with adaptive steps (give rtol)")
+    if rtol is None and (t_eval is not None or events is not None or dense_output):
+        what = "t_eval" if t_eval is not None else "events" if events is not None else "dense_output"
+        raise ValueError(f"{what}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
     if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
@@ -745,7 +730,7 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
     n = len(spacecraft.wheels)
     wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
     limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
-    def run(f):
+    def run(f, memory=memory):
         return _control_run(f, wheels, limits, state.R, state.omega, target, fn, memory, code_events or None)
     try:
         status, rows, messages, raised, t_raised, event_rows = _with_event_csv(names, flags, run, key="--event-csv")
@@ -758,6 +743,15 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         res["method"] = summary.group(7)
     if names:
         res["t_events"], res["y_events"] = _events_by_name(names, event_rows, 0.0)
+    res["sol"] = None
+    if dense_output and status == 0:
+        quiet = {k: v for k, v in flags.items() if k not in ("--t-eval", "--event", "--every")}
+
+        def again(f):  # the same run (the samples, the steps), a fresh memory for a Python controller
+            status_, rows_, messages_, *_ = run(f, None if fn is None else {})
+            return status_, rows_, messages_
+        res["sol"] = _dense_solution(lambda kw, _events=None: again(dict(quiet, **{"--t-eval": kw["t_eval"]})), {}, 0.0,
+                                     0.0, t_end)
     res["success"] = status == 0
     res["message"] = "ok" if status == 0 else (messages[-1] if messages else "")
     if status == -1:

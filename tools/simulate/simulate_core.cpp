@@ -1022,7 +1022,8 @@ int run(const StepperT& stepper, const Config& c, const trompo::State<double>&, 
     e.states[i].rotation = in.rotation[i];
     e.states[i].omega = in.omega[i];
   }
-  const trompo::EnsembleOptions options{.threads = c.threads};
+  trompo::EnsembleOptions options{.threads = c.threads};
+  options.progress = e.progress;
   std::vector<StepperT> steppers;
   if (!in.mgl.empty() || !in.inertia.empty()) {
     steppers.reserve(n);

@@ -603,6 +603,8 @@ struct EnsembleRun {
   /// Each member's events: per --event, the states where it occurred.
   std::vector<std::vector<std::vector<trompo::State<double>>>> events;
   std::vector<std::string> messages;                          ///< warnings (an rtol raised to its floor)
+  /// Called as progress(done, n) after each chunk of members (EnsembleOptions::progress).
+  std::function<void(std::size_t, std::size_t)> progress;
   /// Whether member i reached t_end.
   bool ok(std::size_t i) const { return adaptive.empty() ? summaries[i].ok() : adaptive[i].ok(); }
   /// Why member i stopped ("ok" when it did not).

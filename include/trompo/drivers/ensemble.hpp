@@ -47,6 +47,8 @@
 #include <cmath>
 #include <cstddef>
 #include <exception>
+#include <functional>
+#include <mutex>
 #include <ranges>
 #include <string>
 #include <thread>
@@ -70,6 +72,11 @@ struct EnsembleOptions {
   /// ensemble_chunk(members, threads), about 16 chunks a thread (fewer than 64 members a
   /// chunk), so that an uneven sweep still ends with all threads busy.
   std::size_t chunk = 0;
+  /// Progress of a long ensemble: called as progress(done, n) after each chunk a thread
+  /// finishes (done: the members finished so far, of n), one call at a time and with done
+  /// increasing, from the thread that finished the chunk; empty: no call. The members'
+  /// results do not depend on it.
+  std::function<void(std::size_t, std::size_t)> progress{};
 };
 
 /// The chunk integrate_ensemble takes at a time for `members` members on `threads` threads
@@ -100,6 +107,8 @@ void for_each_member(std::size_t n, const EnsembleOptions& options, Run&& run) {
   const unsigned threads = ensemble_threads(n, options.threads);
   const std::size_t chunk = options.chunk ? options.chunk : ensemble_chunk(n, threads);
   std::atomic<std::size_t> next{0};  // the first member no thread has taken yet
+  std::mutex progress_lock;          // one progress call at a time, done increasing
+  std::size_t done = 0;              // members finished (under progress_lock)
   auto work = [&] {
     for (;;) {
       const std::size_t begin = next.fetch_add(chunk, std::memory_order_relaxed);
@@ -111,6 +120,11 @@ void for_each_member(std::size_t n, const EnsembleOptions& options, Run&& run) {
         } catch (...) {
           errors[i] = std::current_exception();
         }
+      }
+      if (options.progress) {
+        const std::lock_guard<std::mutex> hold(progress_lock);
+        done += end - begin;
+        options.progress(done, n);
       }
     }
   };

@@ -78,6 +78,7 @@
 #include <utility>
 #include <vector>
 
+#include "trompo/drivers/adaptive/event_location.hpp"
 #include "trompo/drivers/dense_output.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/drivers/invariant_hold.hpp"
@@ -208,176 +209,12 @@ struct AdaptiveSummary {
   }
 };
 
-/// An event function g(t, Λ, Ω) with SciPy's `direction` (+1: g rising through 0, −1:
-/// falling, 0: both) and `terminal` (0: never; n ≥ 1: the n-th occurrence ends the run).
-/// Rising and falling are with increasing t, also in a backward run (SciPy's follow the
-/// order of integration): a tilt maximum is a maximum either way.
-template <class Scalar>
-struct Event {
-  /// A 3-vector of Scalar.
-  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  /// The event's name (built-ins: nutation-max, nutation-min, axis-crossing, flip).
-  std::string name;
-  /// The event function g(t, Λ, Ω); an event is a zero of it.
-  std::function<Scalar(Scalar, const SO3<Scalar>&, const Vector3&)> g;
-  /// +1 rising, −1 falling, 0 both (with increasing t).
-  int direction = 0;
-  /// 0: never ends the run; n ≥ 1: the n-th occurrence ends it.
-  int terminal = 0;
-};
-
-/// The built-in events [A6].
-namespace events {
-/// g = d/dt(γ·ΛE) = γ·Λ(Ω × E): the rate of the cosine of the tilt between the body point E
-/// and the vertical γ. Its zeros rising (direction +1) are the tilt's maxima ("nutation-max",
-/// γ·ΛE smallest), falling (−1) its minima ("nutation-min").
-template <class Scalar>
-Event<Scalar> nutation(const Eigen::Matrix<Scalar, 3, 1>& E, const Eigen::Matrix<Scalar, 3, 1>& up, bool maximum,
-                       int terminal = 0) {
-  Event<Scalar> e;
-  e.name = maximum ? "nutation-max" : "nutation-min";
-  e.g = [E, up](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>& W) { return up.dot(L * W.cross(E)); };
-  e.direction = maximum ? 1 : -1;
-  e.terminal = terminal;
-  return e;
-}
-/// nutation() for a scene with gravity (E and γ of its gravity effect).
-template <class Scene>
-Event<typename Scene::Scalar> nutation(const Scene& scene, bool maximum, int terminal = 0) {
-  using Scalar = typename Scene::Scalar;
-  Eigen::Matrix<Scalar, 3, 1> E = Eigen::Matrix<Scalar, 3, 1>::Zero();
-  bool found = false;
-  std::apply([&](const auto&... eff) {
-    ((found = found || [&](const auto& x) {
-       if constexpr (requires { x.com_direction(); }) {
-         E = x.com_direction();
-         return true;
-       } else {
-         return false;
-       }
-     }(eff)),
-     ...);
-  }, scene.effects());
-  if (!found) detail::fail("event nutation: the scene has no gravity (no body point E to follow)");
-  return nutation<Scalar>(E, scene.momentum_axis(), maximum, terminal);
-}
-/// g = n·ΛA: the body axis A crossing the spatial plane of normal n ("axis-crossing").
-template <class Scalar>
-Event<Scalar> axis_crossing(const Eigen::Matrix<Scalar, 3, 1>& body_axis, const Eigen::Matrix<Scalar, 3, 1>& normal,
-                            int direction = 0, int terminal = 0) {
-  if (!detail::all_finite(body_axis) || !(body_axis.norm() > 0))
-    detail::fail("event axis-crossing: body axis must be finite and non-zero, got ", detail::to_text(body_axis));
-  if (!detail::all_finite(normal) || !(normal.norm() > 0))
-    detail::fail("event axis-crossing: plane normal must be finite and non-zero, got ", detail::to_text(normal));
-  Event<Scalar> e;
-  e.name = "axis-crossing";
-  const Eigen::Matrix<Scalar, 3, 1> A = body_axis.normalized(), n = normal.normalized();
-  e.g = [A, n](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>&) { return n.dot(L * A); };
-  e.direction = direction;
-  e.terminal = terminal;
-  return e;
-}
-/// g = u·JΩ, u the intermediate principal axis of J: a sign change is a flip of the body
-/// about that axis ("flip", the Dzhanibekov effect). Throws invalid_input, naming the
-/// principal moments, for a body with two of them equal (to 1e-12 of the largest): a
-/// symmetric body has no intermediate axis, and the event would silently find nothing.
-template <class Scene>
-Event<typename Scene::Scalar> flip(const Scene& scene, int terminal = 0) {
-  using Scalar = typename Scene::Scalar;
-  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-  Eigen::SelfAdjointEigenSolver<Matrix3> eig(scene.body().inertia());
-  const auto& m = eig.eigenvalues();  // ascending
-  if (!(m(1) - m(0) > Scalar(1e-12) * m(2) && m(2) - m(1) > Scalar(1e-12) * m(2)))
-    detail::fail("event flip: the body's principal moments ", m(0), ", ", m(1), ", ", m(2),
-                 " have two equal (a symmetric body): it has no intermediate axis to flip about");
-  const Eigen::Matrix<Scalar, 3, 1> u = eig.eigenvectors().col(1);  // ascending: the middle one
-  const Matrix3 J = scene.body().inertia();
-  Event<Scalar> e;
-  e.name = "flip";
-  e.g = [u, J](Scalar, const SO3<Scalar>&, const Eigen::Matrix<Scalar, 3, 1>& W) { return u.dot(J * W); };
-  e.direction = 0;
-  e.terminal = terminal;
-  return e;
-}
-/// A built-in event by its CLI name: nutation-max, nutation-min, flip, axis-crossing
-/// (body axis e3 crossing the horizontal plane of the momentum axis). Throws invalid_input
-/// for an unknown name or one the scene cannot have.
-template <class Scene>
-Event<typename Scene::Scalar> by_name(const Scene& scene, const std::string& name, int terminal = 0) {
-  using V = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
-  if (name == "nutation-max") return nutation(scene, true, terminal);
-  if (name == "nutation-min") return nutation(scene, false, terminal);
-  if (name == "flip") return flip(scene, terminal);
-  if (name == "axis-crossing") return axis_crossing<typename Scene::Scalar>(V::UnitZ(), scene.momentum_axis(), 0, terminal);
-  detail::fail("event: unknown name '", name, "' (nutation-max, nutation-min, axis-crossing, flip)");
-}
-}  // namespace events
-
 /// The default observer of integrate_adaptive: none.
 struct NoStepObserver {};
 /// The default event sink: none.
 struct NoEventSink {};
 
 namespace detail {
-
-/// Brent's root of f on [a, b] with f(a)·f(b) ≤ 0 (Brent 1973, "zeroin"), to |b − a| ≤
-/// 2·tol: the root bracket shrinks to a few ulp of t when tol = 2ε|t|.
-template <class Scalar, class F>
-Scalar brent_root(F&& f, Scalar a, Scalar b, Scalar fa, Scalar fb) {
-  using std::abs;
-  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  if (fa == Scalar(0)) return a;
-  if (fb == Scalar(0)) return b;
-  Scalar c = a, fc = fa, d = b - a, e = d;
-  for (int iter = 0; iter < 200; ++iter) {
-    if ((fb > 0) == (fc > 0)) {
-      c = a;
-      fc = fa;
-      d = e = b - a;
-    }
-    if (abs(fc) < abs(fb)) {
-      a = b;
-      b = c;
-      c = a;
-      fa = fb;
-      fb = fc;
-      fc = fa;
-    }
-    const Scalar tol = Scalar(2) * eps * abs(b) + std::numeric_limits<Scalar>::denorm_min();
-    const Scalar m = (c - b) / 2;
-    if (abs(m) <= tol || fb == Scalar(0)) return b;
-    if (abs(e) >= tol && abs(fa) > abs(fb)) {
-      Scalar p, q, r;
-      const Scalar s = fb / fa;
-      if (a == c) {
-        p = 2 * m * s;
-        q = 1 - s;
-      } else {
-        q = fa / fc;
-        r = fb / fc;
-        p = s * (2 * m * q * (q - r) - (b - a) * (r - 1));
-        q = (q - 1) * (r - 1) * (s - 1);
-      }
-      if (p > 0) q = -q;
-      else p = -p;
-      if (2 * p < std::min(3 * m * q - abs(tol * q), abs(e * q))) {
-        e = d;
-        d = p / q;
-      } else {
-        d = m;
-        e = m;
-      }
-    } else {
-      d = m;
-      e = m;
-    }
-    a = b;
-    fa = fb;
-    b += abs(d) > tol ? d : (m > 0 ? tol : -tol);
-    fb = f(b);
-  }
-  return b;
-}
 
 /// Whether T is a std::array (a composition's memory, AdaptiveLoop::assign).
 template <class T>
@@ -395,12 +232,6 @@ struct trajectory_memory<Traj> {
   using type = typename Traj::Memory;
 };
 
-/// One event occurrence inside a step.
-template <class Scalar>
-struct Occurrence {
-  Scalar t;
-  int index;
-};
 
 /// The adaptive loop (integrate_adaptive and solve).
 template <class Stepper, class Traj, class Observer, class Sink>
@@ -415,16 +246,16 @@ struct AdaptiveLoop {
   const AdaptiveOptions<Scalar>& opt;
   Observer& observer;
   Sink& sink;
-  const std::vector<Event<Scalar>>* event_list;
   AdaptiveSummary<Scalar> sum{};
 
   AdaptiveLoop(const Stepper& st, Traj& tr, Scalar te, const AdaptiveOptions<Scalar>& o, Observer& ob, Sink& si,
                const std::vector<Event<Scalar>>* ev)
-      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si), event_list(ev) {
+      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si) {
     using std::abs;
     span = opt.tolerance_over_span ? abs(te - tr.time) : Scalar(1);
     if (!(span > 0)) span = Scalar(1);
     if (opt.hold_invariants) hold = InvariantHold<SceneOf>(st.scene(), tr, st.keeps());
+    events.list = ev;
   }
   using SceneOf = std::decay_t<decltype(std::declval<const Stepper&>().scene())>;
   /// What the run holds at the first state's values [A7] (nothing unless opt.hold_invariants).
@@ -443,7 +274,7 @@ struct AdaptiveLoop {
   Scalar span = Scalar(1);
 
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
-  bool dense() const { return observed || (event_list && !event_list->empty()); }
+  bool dense() const { return observed || events.any(); }
 
   // Tolerance mode with the defect estimate [D4]: its quadrature (Simpson's for order 2,
   // Hermite's for orders 4 and 6), and the dense nodes of the current state (a) and of the
@@ -485,10 +316,8 @@ struct AdaptiveLoop {
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
 
-  // event scratch, reserved before the loop
-  std::vector<Scalar> g_prev{};
-  std::vector<int> remaining{};
-  std::vector<Occurrence<Scalar>> found{};
+  /// The events [A6] (drivers/adaptive/event_location.hpp), their scratch reserved before the loop.
+  EventLocator<Scalar> events{};
 
   Scalar direction() const { return t_end >= traj.time ? Scalar(1) : Scalar(-1); }
 
@@ -561,55 +390,7 @@ struct AdaptiveLoop {
   }
 
   // ---- events ------------------------------------------------------------------------
-  void start_events() {
-    if (!event_list) return;
-    const std::size_t n = event_list->size();
-    g_prev.resize(n);
-    remaining.resize(n);
-    found.reserve(4 * n + 4);
-    for (std::size_t k = 0; k < n; ++k) {
-      const Event<Scalar>& e = (*event_list)[k];
-      if (!e.g) detail::fail("event '", e.name, "': no function");
-      if (e.direction < -1 || e.direction > 1) detail::fail("event '", e.name, "': direction must be -1, 0 or 1, got ", e.direction);
-      if (e.terminal < 0) detail::fail("event '", e.name, "': terminal must be >= 0, got ", e.terminal);
-      g_prev[k] = e.g(traj.time, traj.rotation, traj.omega);
-      remaining[k] = e.terminal;
-    }
-  }
-
-  static bool crosses(Scalar ga, Scalar gb, int dir) {
-    const bool up = ga < 0 && gb >= 0, down = ga > 0 && gb <= 0;
-    return dir > 0 ? up : dir < 0 ? down : (up || down);
-  }
-
-  /// The events of the step a → b on its interpolant, in the order of time (scratch `found`).
-  void locate(const LieHermite<Scalar>& seg, Scalar ta, Scalar tb) {
-    found.clear();
-    constexpr int samples = 4;  // sub-intervals: ends plus three interior points
-    for (std::size_t k = 0; k < event_list->size(); ++k) {
-      const Event<Scalar>& e = (*event_list)[k];
-      const auto g_at = [&](Scalar t) {
-        const State<Scalar> s = seg.state(t);
-        return e.g(t, s.rotation, s.omega);
-      };
-      Scalar t_lo = ta, g_lo = g_prev[k];
-      for (int i = 1; i <= samples; ++i) {
-        const Scalar t_hi = i == samples ? tb : ta + (tb - ta) * Scalar(i) / Scalar(samples);
-        const Scalar g_hi = g_at(t_hi);
-        // direction is the sign of dg/dt, in time (so nutation-max is a maximum backward too)
-        if (crosses(g_lo, g_hi, ta <= tb ? e.direction : -e.direction)) {
-          const Scalar root = brent_root<Scalar>(g_at, t_lo, t_hi, g_lo, g_hi);
-          found.push_back({root, static_cast<int>(k)});
-        }
-        t_lo = t_hi;
-        g_lo = g_hi;
-      }
-    }
-    const Scalar dir = direction();
-    std::sort(found.begin(), found.end(), [dir](const Occurrence<Scalar>& x, const Occurrence<Scalar>& y) {
-      return dir * x.t < dir * y.t;
-    });
-  }
+  void start_events() { events.start(events.list, traj); }
 
   // ---- the step ------------------------------------------------------------------------
   /// to = from. Of a composition's memory (one base memory per sub-step index, for the
@@ -794,11 +575,10 @@ struct AdaptiveLoop {
     const LieHermite<Scalar> seg = node_b_ready && !held_now && attempt_segment.quintic() == opt.quintic
                                        ? attempt_segment
                                        : LieHermite<Scalar>(a, b, opt.quintic);
-    if (event_list && !event_list->empty()) {
-      locate(seg, before.time, t_next);
-      for (const Occurrence<Scalar>& o : found) {
-        const std::size_t k = static_cast<std::size_t>(o.index);
-        const bool terminal = remaining[k] > 0 && --remaining[k] == 0;
+    if (events.any()) {
+      events.locate(seg, before.time, t_next, direction());
+      for (const Occurrence<Scalar>& o : events.found) {
+        const bool terminal = events.ends_run(static_cast<std::size_t>(o.index));
         if (!terminal) {
           if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
           continue;
@@ -830,10 +610,7 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::event;
         return false;
       }
-      for (std::size_t k = 0; k < event_list->size(); ++k) {
-        const State<Scalar>& s = now;
-        g_prev[k] = (*event_list)[k].g(s.time, s.rotation, s.omega);
-      }
+      events.passed(now);
     }
     if constexpr (observed) notify(a, b);
     if (!stepped_in_place) assign(traj, next);

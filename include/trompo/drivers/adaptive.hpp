@@ -78,6 +78,7 @@
 #include <utility>
 #include <vector>
 
+#include "trompo/drivers/adaptive/error_estimate.hpp"
 #include "trompo/drivers/adaptive/event_location.hpp"
 #include "trompo/drivers/dense_output.hpp"
 #include "trompo/drivers/integrate.hpp"
@@ -92,14 +93,6 @@ namespace trompo {
 enum class StepControl {
   tolerance,  ///< an error estimate per step, H211b on the error per unit step [A2], [A3]
   reversible  ///< Hairer–Söderlind step density, explicit and time-reversible [A5]
-};
-
-/// How tolerance mode estimates the error of a step [A3].
-enum class ErrorEstimate {
-  automatic,   ///< richardson where the error scales with the load (the splitting); else defect up to order 6, doubling above
-  defect,      ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–2 evaluations of Ω̇
-  doubling,    ///< richardson with m = 2: Ψ_{2h} against Ψ_h∘Ψ_h, three steps per two
-  richardson   ///< Ψ_{mh} against Ψ_h^m, advancing with the m steps [A8]: m + 1 steps per m
 };
 
 /// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
@@ -254,6 +247,7 @@ struct AdaptiveLoop {
     using std::abs;
     span = opt.tolerance_over_span ? abs(te - tr.time) : Scalar(1);
     if (!(span > 0)) span = Scalar(1);
+    norm = ErrorNorm<Scalar>{opt.atol, opt.rtol, span};
     if (opt.hold_invariants) hold = InvariantHold<SceneOf>(st.scene(), tr, st.keeps());
     events.list = ev;
   }
@@ -272,6 +266,8 @@ struct AdaptiveLoop {
   }
   /// The span T the tolerances are spread over (1: per unit time).
   Scalar span = Scalar(1);
+  /// The error norm per unit step [A2] (drivers/adaptive/error_estimate.hpp).
+  ErrorNorm<Scalar> norm{};
 
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
   bool dense() const { return observed || events.any(); }
@@ -280,7 +276,9 @@ struct AdaptiveLoop {
   // Hermite's for orders 4 and 6), and the dense nodes of the current state (a) and of the
   // attempt (b), kept so that each accepted step evaluates one new node.
   bool use_defect = false;
-  DefectRule defect_rule = DefectRule::simpson;
+  DefectEstimate<SceneOf> defect{};
+  RichardsonEstimate<Scalar> richardson{};
+  static_assert(ErrorEstimator<DefectEstimate<SceneOf>> && ErrorEstimator<RichardsonEstimate<Scalar>>);
   /// Steps per attempt: Richardson's m [A8], 1 with the defect estimate.
   int m = 1;
   /// The defect attempt steps `traj` itself when the stepper's memory is only a hint (a
@@ -320,25 +318,6 @@ struct AdaptiveLoop {
   EventLocator<Scalar> events{};
 
   Scalar direction() const { return t_end >= traj.time ? Scalar(1) : Scalar(-1); }
-
-  /// x^n for n ≥ 0 by squarings.
-  static Scalar integer_power(Scalar x, int n) {
-    Scalar result(1);
-    for (; n > 0; n >>= 1, x *= x)
-      if (n & 1) result *= x;
-    return result;
-  }
-
-  /// r² of the error norm per unit step [A2] of Richardson's estimate [A8]
-  /// (fine − coarse)/(m^p − 1) of an attempt of span h.
-  Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse_end, const State<Scalar>& fine,
-                             Scalar h) const {
-    if (attempt_m == 1) return Scalar(0);  // a few ulp of t: nothing to estimate
-    const Scalar k = integer_power(Scalar(attempt_m), stepper.order()) - Scalar(1);  // m^p − 1
-    const Vector3 e_rot = (coarse_end.rotation.inverse() * fine.rotation).log() / k;
-    const Vector3 e_om = (fine.omega - coarse_end.omega) / k;
-    return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
-  }
 
   /// The span |h| (≥ 0) of `steps` steps, each within max_step and the rotation cap
   /// |h||Ω| ≤ max_rotation (the span within the cap unless the coarse step turns freely),
@@ -406,24 +385,6 @@ struct AdaptiveLoop {
     }
   }
 
-  /// The square r² of the RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of
-  /// a step a → b, given |Ω_a|² and |Ω_b|²:
-  /// r = RMS(|e_ξ|/(s_Λ|h|/T + 8ε), |e_Ω|/(s_Ω|h|/T + 8ε|Ω|)), accepted when r ≤ 1. The
-  /// 8ε terms are the estimate's round-off (measured ≤ 5ε and ≤ 2ε|Ω| on the standard
-  /// cases): a step is never refused for its rounding, which does not shrink with h.
-  /// Squared, so that no square root lies between the estimate and the controller.
-  Scalar error_norm_squared(const Vector3& e_rot, const Vector3& e_om, Scalar omega2_a, Scalar omega2_b,
-                            Scalar h) const {
-    using std::abs;
-    using std::sqrt;
-    constexpr Scalar noise = Scalar(8) * std::numeric_limits<Scalar>::epsilon();
-    const Scalar w = sqrt(std::max(omega2_a, omega2_b));
-    const Scalar per_step = abs(h) / span;  // error per unit step against tol/T
-    const Scalar s_rot = (opt.atol + opt.rtol) * per_step + noise;
-    const Scalar s_om = (opt.atol + opt.rtol * w) * per_step + noise * w;
-    return (e_rot.squaredNorm() / (s_rot * s_rot) + e_om.squaredNorm() / (s_om * s_om)) / Scalar(2);
-  }
-
   /// One attempt of span h ending at t_next: on success `next` holds the state the run
   /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/m}^m(y) with Richardson's) and the
   /// return value is r², r the error per unit step; on failure the status is set, traj untouched.
@@ -431,7 +392,7 @@ struct AdaptiveLoop {
     if (!use_defect) return attempt_richardson(h, next, status);
     // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
     // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
-    const bool quintic_estimate = defect_rule != DefectRule::simpson;
+    const bool quintic_estimate = defect.quintic();
     if (!have_node_a) {
       node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj), quintic_estimate);
       have_node_a = true;
@@ -449,9 +410,7 @@ struct AdaptiveLoop {
     node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end), quintic_estimate);
     if (quintic_estimate) add_second_rate(stepper.scene(), node_a);  // a cubic attempt's start
     attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
-    Vector3 e_rot, e_om;
-    defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, defect_rule, e_rot, e_om);
-    return error_norm_squared(e_rot, e_om, node_a.state.omega.squaredNorm(), end.omega.squaredNorm(), h);
+    return defect.squared_error(norm, {node_a, node_b, attempt_segment, h});
   }
 
   /// After a rejected attempt: the state before it (stepped in place), or nothing.
@@ -481,7 +440,7 @@ struct AdaptiveLoop {
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
-    return error_per_unit_step(traj, coarse, fine, h);
+    return richardson.squared_error(norm, {traj, coarse, fine, h, attempt_m});
   }
 
   /// Keeps what the j-th inner step of Richardson's attempt left (`substates`).
@@ -648,14 +607,11 @@ struct AdaptiveLoop {
   /// The estimate of opt.estimate: the defect, or Richardson's with its m [A8].
   void choose_estimate() {
     const int p = stepper.order();
-    ErrorEstimate e = opt.estimate;
-    if (e == ErrorEstimate::automatic)  // above order 6: doubling, or Richardson's with the m given
-      e = error_scales_with_load(stepper) ? ErrorEstimate::richardson
-          : p <= 6                        ? ErrorEstimate::defect
-          : opt.substeps != 0             ? ErrorEstimate::richardson
-                                          : ErrorEstimate::doubling;
-    use_defect = e == ErrorEstimate::defect;
-    m = use_defect ? 1 : opt.substeps != 0 ? opt.substeps : e == ErrorEstimate::doubling ? 2 : 8;
+    const detail::EstimateChoice c = detail::choose_estimate(opt.estimate, p, error_scales_with_load(stepper), opt.substeps);
+    use_defect = c.defect;
+    m = c.m;
+    defect = DefectEstimate<SceneOf>{&stepper.scene(), DefectEstimate<SceneOf>::rule_for(p)};  // [D4]
+    richardson.order = p;
     attempt_m = m;
     sum.substeps = m;
     coarse_turns_freely = !use_defect && error_scales_with_load(stepper);
@@ -672,7 +628,6 @@ struct AdaptiveLoop {
     Scalar r2_prev = Scalar(1), h_prev = h;
     bool have_prev = false;
     Scalar growth_cap = opt.max_factor;
-    defect_rule = p <= 2 ? DefectRule::simpson : DefectRule::hermite;  // [D4]
     Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {
@@ -720,7 +675,7 @@ struct AdaptiveLoop {
       const Scalar rr2 = std::max(r2, Scalar(1e-20));
       Scalar f;
       if (have_prev)
-        f = opt.safety * pow(rr2 * r2_prev * integer_power(h_try / h_prev, 2 * p), -Scalar(1) / Scalar(8 * p));
+        f = opt.safety * pow(rr2 * r2_prev * detail::integer_power(h_try / h_prev, 2 * p), -Scalar(1) / Scalar(8 * p));
       else
         f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
       f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));

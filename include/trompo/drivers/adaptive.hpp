@@ -80,6 +80,7 @@
 
 #include "trompo/drivers/adaptive/error_estimate.hpp"
 #include "trompo/drivers/adaptive/event_location.hpp"
+#include "trompo/drivers/adaptive/step_controller.hpp"
 #include "trompo/drivers/dense_output.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/drivers/invariant_hold.hpp"
@@ -88,12 +89,6 @@
 #include "trompo/schemes/scheme.hpp"
 
 namespace trompo {
-
-/// How the adaptive driver picks h.
-enum class StepControl {
-  tolerance,  ///< an error estimate per step, H211b on the error per unit step [A2], [A3]
-  reversible  ///< Hairer–Söderlind step density, explicit and time-reversible [A5]
-};
 
 /// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
 template <class Scalar>
@@ -619,15 +614,9 @@ struct AdaptiveLoop {
 
   void run_tolerance() {
     using std::abs;
-    using std::pow;
-    using std::sqrt;
     const Scalar dir = direction();
-    const int p = stepper.order();
     choose_estimate();
-    Scalar h = dir * first_step();
-    Scalar r2_prev = Scalar(1), h_prev = h;
-    bool have_prev = false;
-    Scalar growth_cap = opt.max_factor;
+    ToleranceController<Scalar> ctl(dir * first_step(), stepper.order(), opt.safety, opt.min_factor, opt.max_factor);
     Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {
@@ -635,9 +624,9 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::failed;
         return;
       }
-      h = dir * capped(abs(h), traj.omega, m);
+      ctl.h = dir * capped(abs(ctl.h), traj.omega, m);
       bool last = false;
-      const Scalar h_clipped = clip(h, last);
+      const Scalar h_clipped = clip(ctl.proposal(), last);
       if (too_small(h_clipped) && !last) {
         sum.status = AdaptiveStatus::failed;
         return;
@@ -652,58 +641,30 @@ struct AdaptiveLoop {
       if (status != StepStatus::ok) {  // Newton failure: shorter step, nothing committed
         ++sum.failures;
         sum.failure = status;
-        h = h_try / Scalar(4);
-        growth_cap = Scalar(1.5);
-        if (too_small(h)) {
+        ctl.fail(h_try);
+        if (too_small(ctl.proposal())) {
           sum.status = AdaptiveStatus::failed;
           return;
         }
         continue;
       }
-      if (!(r2 <= Scalar(1))) {  // rejected: the elementary controller, h shrinks: (1/r)^{1/p}
+      if (!(r2 <= Scalar(1))) {  // rejected
         ++sum.rejected;
-        const Scalar f = std::isfinite(static_cast<double>(r2))
-                             ? std::max(opt.min_factor, opt.safety * pow(r2, -Scalar(1) / Scalar(2 * p)))
-                             : opt.min_factor;
-        h = h_try * std::min(f, Scalar(0.9));
-        growth_cap = Scalar(1);
+        ctl.reject(h_try, r2);
         undo();
         continue;
       }
-      // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
-      // = h_n (r_n² r_{n−1}² ρ^{2p})^{−1/8p}, ρ = h_n/h_{n−1}: one pow, ρ^{2p} by squarings.
-      const Scalar rr2 = std::max(r2, Scalar(1e-20));
-      Scalar f;
-      if (have_prev)
-        f = opt.safety * pow(rr2 * r2_prev * detail::integer_power(h_try / h_prev, 2 * p), -Scalar(1) / Scalar(8 * p));
-      else
-        f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
-      f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
-      growth_cap = opt.max_factor;
+      ctl.accept(h_try, r2, last);
       sum.h_last = h_try / Scalar(attempt_m);
       if (!commit_attempt(next, t_next)) break;
-      r2_prev = rr2;
-      h_prev = h_try;
-      have_prev = true;
-      // after a shortened last step, keep the controller's h for a continuation
-      h = (last ? h : h_try) * f;
     }
     sum.time = traj.time;
   }
 
   // ---- reversible mode [A5] ----------------------------------------------------------------
+  /// The floor ω₀ of the control function Q (drivers/adaptive/step_controller.hpp).
   Scalar omega_floor() const {
-    using std::sqrt;
-    if (opt.omega_floor > 0) return opt.omega_floor;
-    const Vector3 wd = omega_rate(stepper.scene(), static_cast<const State<Scalar>&>(traj));
-    return std::max({Scalar(1e-3) * traj.omega.norm(), sqrt(wd.norm()), Scalar(1e-8)});
-  }
-  /// Q = √(|Ω|² + ω₀²) and G = d/dt log Q = Ω·Ω̇/Q² ([A5]).
-  void control(const State<Scalar>& s, Scalar w0, Scalar& Q, Scalar& G) const {
-    using std::sqrt;
-    const Scalar q2 = s.omega.squaredNorm() + w0 * w0;
-    Q = sqrt(q2);
-    G = s.omega.dot(omega_rate(stepper.scene(), s)) / q2;
+    return ReversibleController<Scalar>::omega_floor(stepper.scene(), traj, opt.omega_floor);
   }
 
   void run_reversible(Scalar epsilon) {
@@ -711,11 +672,9 @@ struct AdaptiveLoop {
     const Scalar dir = direction();
     const Scalar w0 = omega_floor();
     Scalar Q, G;
-    control(traj, w0, Q, G);
+    ReversibleController<Scalar>::control(stepper.scene(), traj, w0, Q, G);
     sum.epsilon = epsilon;
-    // ρ_{1/2} = Q(y0) + ½ ε G(y0); ρ_{n+3/2} = ρ_{n+1/2} + ε G(y_{n+1}) (backward: −G)
-    Scalar rho = Q + dir * epsilon * G / Scalar(2);
-    const Scalar rho_floor = Scalar(1e-3) * Q;
+    ReversibleController<Scalar> ctl(epsilon, dir, Q, G);
     Traj next = traj;
     std::int64_t steps = 0;
     while (traj.time != t_end) {
@@ -724,7 +683,7 @@ struct AdaptiveLoop {
         return;
       }
       bool last = false;
-      const Scalar h = clip(dir * epsilon / std::max(rho, rho_floor), last);
+      const Scalar h = clip(ctl.proposal(), last);
       if (too_small(h) && !last) {
         // ρ overflowed (Ω·Ω̇ beyond the range) or is NaN, or h fell below a few ulp of t:
         // a step of h = 0 would throw in the recovery below, one below ulp(t) would not
@@ -756,8 +715,8 @@ struct AdaptiveLoop {
       ++sum.accepted;
       sum.h_last = h;
       if (!commit(next, t_next)) break;
-      control(traj, w0, Q, G);
-      rho += dir * epsilon * G;
+      ReversibleController<Scalar>::control(stepper.scene(), traj, w0, Q, G);
+      ctl.accept(h, G, last);
     }
     sum.time = traj.time;
   }

@@ -64,16 +64,25 @@
 //
 // No heap allocation in the step loop: the scratch of the events is reserved before it;
 // only solve()'s solution object grows (its vectors of nodes, t_eval states and events).
+//
+// The driver's parts (docs/adaptive.md, "The driver's parts"), each behind one concept:
+//   drivers/adaptive/error_estimate.hpp   ErrorEstimator: DefectEstimate [D4],
+//                                         RichardsonEstimate [A8]; the norm ErrorNorm [A2]
+//   drivers/adaptive/step_controller.hpp  StepController: ToleranceController [A3],
+//                                         ReversibleController [A5]
+//   drivers/adaptive/event_location.hpp   Event, events::, the locator (Brent's method) [A6]
+//   drivers/invariant_hold.hpp            the hold [A7]
+//   drivers/dense_output.hpp              the dense nodes and interpolant [D1]–[D4]
+// What stays here: the options and summary, the attempts (one step, or Richardson's m + 1),
+// their commits (dense nodes, events, a terminal event's real step), the step bounds (the
+// rotation cap, t_end) and the two loops, run_tolerance and run_reversible.
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <string>
-#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>

@@ -336,31 +336,13 @@ struct AdaptiveLoop {
     return h_abs;
   }
 
-  /// The first attempt's span: m first steps (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
+  /// The first attempt's span: m first steps (Hairer–Nørsett–Wanner II.4, in the norm of
+  /// [A2]: ToleranceController::first_step), each within the caps.
   Scalar first_step() const {
-    using std::pow;
-    using std::sqrt;
     if (opt.first_step > 0) return capped(Scalar(m) * opt.first_step, traj.omega, m);
-    const auto& scene = stepper.scene();
-    const State<Scalar>& y0 = traj;
-    const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
-    const Scalar s_rot = opt.atol + opt.rtol, s_om = opt.atol + opt.rtol * w0.norm();
-    const auto rms = [](Scalar a, Scalar b) { return sqrt((a * a + b * b) / 2); };
-    const Scalar d0 = rms(Scalar(1) / s_rot, w0.norm() / s_om);
-    const Scalar d1 = rms(w0.norm() / s_rot, wd0.norm() / s_om);
-    Scalar h0 = (d0 < Scalar(1e-5) || d1 < Scalar(1e-5)) ? Scalar(1e-6) : Scalar(0.01) * d0 / d1;
-    h0 = capped(h0, w0);
-    State<Scalar> y1 = y0;  // explicit Euler
-    y1.rotation = y0.rotation * SO3<Scalar>::exp(direction() * h0 * w0);
-    y1.omega = w0 + direction() * h0 * wd0;
-    y1.time = y0.time + direction() * h0;
-    const Vector3 wd1 = omega_rate(scene, y1);
-    const Scalar d2 = rms((y1.omega - w0).norm() / s_rot, (wd1 - wd0).norm() / s_om) / h0;
-    const int p = stepper.order();
-    const Scalar dm = std::max(d1, d2);
-    const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
-                                          : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
-    return capped(Scalar(m) * std::min(Scalar(100) * h0, h1), w0, m);
+    const Scalar h = ToleranceController<Scalar>::first_step(stepper.scene(), traj, opt.atol, opt.rtol, stepper.order(),
+                                                             direction(), [&](Scalar x) { return capped(x, traj.omega); });
+    return capped(Scalar(m) * h, traj.omega, m);
   }
 
   /// The observer: observer(a, b), or observer(a, b, summary) for one that wants the counts.

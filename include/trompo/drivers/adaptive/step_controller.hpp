@@ -106,6 +106,36 @@ struct ToleranceController {
     h = h_taken / Scalar(4);
     growth_cap = Scalar(1.5);
   }
+
+  /// The first step |h| for a scheme of order p from y0 (Hairer–Nørsett–Wanner II.4, in the
+  /// norm of [A2]): with s_Λ = atol + rtol, s_Ω = atol + rtol·|Ω₀|, d₀ = rms(1/s_Λ, |Ω₀|/s_Ω),
+  /// d₁ = rms(|Ω₀|/s_Λ, |Ω̇₀|/s_Ω), h₀ = 0.01·d₀/d₁ (1e-6 when either is below 1e-5, then
+  /// `cap`ped); one explicit Euler step of h₀ (along `dir`) gives d₂, the rate's change per
+  /// unit time; h₁ = (0.01/max(d₁, d₂))^{1/(p+1)}; the step is min(100·h₀, h₁).
+  template <class Scene, class Cap>
+  static Scalar first_step(const Scene& scene, const State<Scalar>& y0, Scalar atol, Scalar rtol, int p, Scalar dir,
+                           Cap&& cap) {
+    using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+    using std::pow;
+    using std::sqrt;
+    const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
+    const Scalar s_rot = atol + rtol, s_om = atol + rtol * w0.norm();
+    const auto rms = [](Scalar a, Scalar b) { return sqrt((a * a + b * b) / 2); };
+    const Scalar d0 = rms(Scalar(1) / s_rot, w0.norm() / s_om);
+    const Scalar d1 = rms(w0.norm() / s_rot, wd0.norm() / s_om);
+    Scalar h0 = (d0 < Scalar(1e-5) || d1 < Scalar(1e-5)) ? Scalar(1e-6) : Scalar(0.01) * d0 / d1;
+    h0 = cap(h0);
+    State<Scalar> y1 = y0;  // explicit Euler
+    y1.rotation = y0.rotation * SO3<Scalar>::exp(dir * h0 * w0);
+    y1.omega = w0 + dir * h0 * wd0;
+    y1.time = y0.time + dir * h0;
+    const Vector3 wd1 = omega_rate(scene, y1);
+    const Scalar d2 = rms((y1.omega - w0).norm() / s_rot, (wd1 - wd0).norm() / s_om) / h0;
+    const Scalar dm = std::max(d1, d2);
+    const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
+                                          : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
+    return std::min(Scalar(100) * h0, h1);
+  }
 };
 
 /// Reversible control [A5]: h = ε/ρ, the step density ρ updated explicitly and

@@ -713,6 +713,36 @@ struct AdaptiveLoop {
   }
 };
 
+/// Reversible mode's ε when none is given [A5]: 20 tolerance-mode attempts on a copy of
+/// `state`; ε = the mean of |h|·Q (Q with the floor w0) along their steps. Their Newton
+/// iterations and base steps are added to `sum`.
+template <class Stepper, class StateT>
+typename Stepper::Scalar pilot_epsilon(const Stepper& stepper, const StateT& state, typename Stepper::Scalar t_end,
+                                       const AdaptiveOptions<typename Stepper::Scalar>& options,
+                                       typename Stepper::Scalar w0, AdaptiveSummary<typename Stepper::Scalar>& sum) {
+  using Scalar = typename Stepper::Scalar;
+  StateT pilot = state;
+  AdaptiveOptions<Scalar> po = options;
+  po.control = StepControl::tolerance;
+  po.max_steps = 20;
+  Scalar acc = Scalar(0);
+  int n = 0;
+  auto pobs = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+    using std::abs;
+    using std::sqrt;
+    acc += abs(b.state.time - a.state.time) * sqrt(a.state.omega.squaredNorm() + w0 * w0);
+    ++n;
+  };
+  NoEventSink none;
+  AdaptiveLoop<Stepper, StateT, decltype(pobs), NoEventSink> pl(stepper, pilot, t_end, po, pobs, none, nullptr);
+  pl.run_tolerance();
+  sum.iterations += pl.sum.iterations;
+  sum.base_steps += pl.sum.base_steps;
+  if (n == 0) detail::fail("adaptive: reversible mode could not set epsilon (the pilot took no step: ",
+                           pl.sum.message(), "); give epsilon");
+  return acc / Scalar(n);
+}
+
 template <class Stepper>
 constexpr bool is_processed() {
   return requires(const Stepper& st, typename Stepper::TrajectoryType& tr) { st.advance(tr, typename Stepper::Scalar(1)); };
@@ -759,31 +789,9 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
     if (options.control == StepControl::tolerance) {
       loop.run_tolerance();
     } else {
-      Scalar epsilon = options.epsilon;
-      if (epsilon == Scalar(0)) {
-        // Pilot [A5]: 20 tolerance-mode attempts on a copy; ε = mean of |h|·Q along their steps.
-        StateT pilot = state;
-        AdaptiveOptions<Scalar> po = options;
-        po.control = StepControl::tolerance;
-        po.max_steps = 20;
-        const Scalar w0 = loop.omega_floor();
-        Scalar acc = Scalar(0);
-        int n = 0;
-        auto pobs = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
-          using std::abs;
-          using std::sqrt;
-          acc += abs(b.state.time - a.state.time) * sqrt(a.state.omega.squaredNorm() + w0 * w0);
-          ++n;
-        };
-        NoEventSink none;
-        detail::AdaptiveLoop<Stepper, StateT, decltype(pobs), NoEventSink> pl(stepper, pilot, t_end, po, pobs, none, nullptr);
-        pl.run_tolerance();
-        loop.sum.iterations += pl.sum.iterations;
-        loop.sum.base_steps += pl.sum.base_steps;
-        if (n == 0) detail::fail("adaptive: reversible mode could not set epsilon (the pilot took no step: ",
-                                 pl.sum.message(), "); give epsilon");
-        epsilon = acc / Scalar(n);
-      }
+      const Scalar epsilon = options.epsilon != Scalar(0)
+                                 ? options.epsilon
+                                 : detail::pilot_epsilon(stepper, state, t_end, options, loop.omega_floor(), loop.sum);
       loop.run_reversible(epsilon);
     }
     loop.sum.time = state.time;

@@ -899,4 +899,60 @@ TEST_CASE("events: flip of FB1 and axis crossings", "[adaptive][events]") {
   for (const State<double>& s : run.events[1]) CHECK(std::abs((s.rotation * V3::UnitZ()).z()) <= 1e-7);
 }
 
+TEST_CASE("adaptive parts: Brent's root, the controllers, Richardson's estimate, the choice of estimate", "[adaptive]") {
+  // The driver's parts alone (drivers/adaptive/*.hpp), against numbers worked by hand.
+  // Brent's method: t² − 2 on [1, 2] to a few ulp of √2.
+  const auto f = [](double t) { return t * t - 2.0; };
+  const double root = detail::brent_root<double>(f, 1.0, 2.0, f(1.0), f(2.0));
+  std::printf("parts: Brent's root of t^2 - 2: %.17g (sqrt 2 %+.3g)\n", root, root - std::sqrt(2.0));
+  CHECK(std::abs(root - std::sqrt(2.0)) <= 4 * std::numeric_limits<double>::epsilon());
+
+  // H211b [A3], order 4, safety 0.9, factors in [0.2, 5]: the first acceptance with r = 0.01
+  // grows h by 0.9·(r²)^{−1/8} = 0.9·√10; a rejection with r = 2 shrinks it by 0.9·4^{−1/8}
+  // and caps the next growth at 1; a failure quarters it.
+  ToleranceController<double> ctl(0.1, 4, 0.9, 0.2, 5.0);
+  ctl.accept(0.1, 1e-4, false);
+  CHECK(std::abs(ctl.proposal() - 0.1 * 0.9 * std::sqrt(10.0)) <= 1e-15);
+  const double h1 = ctl.proposal();
+  ctl.reject(h1, 4.0);
+  CHECK(std::abs(ctl.proposal() - h1 * 0.9 * std::pow(4.0, -0.125)) <= 1e-15);
+  const double h2 = ctl.proposal();
+  ctl.accept(h2, 1e-10, false);  // tiny error, but the growth after a rejection is capped at 1
+  CHECK(ctl.proposal() == h2);
+  ctl.fail(0.1);
+  CHECK(ctl.proposal() == 0.025);
+  // the first step rule gives a positive step, within the cap it is given
+  const auto c = cases::ht1();
+  const double h0 = ToleranceController<double>::first_step(c.scene, c.initial, 1e-8, 1e-8, 4, 1.0,
+                                                            [](double x) { return std::min(x, 1e-3); });
+  std::printf("parts: first step of HT1 at tol 1e-8, order 4: %.6g\n", h0);
+  CHECK(h0 > 0);
+  CHECK(h0 <= 100 * 1e-3);
+
+  // The step density [A5]: ρ_{1/2} = Q + ½εG = 2 + 0.025; h = ε/ρ; ρ += εG.
+  ReversibleController<double> rev(0.1, 1.0, 2.0, 0.5);
+  CHECK(std::abs(rev.proposal() - 0.1 / 2.025) <= 1e-16);
+  rev.accept(rev.proposal(), 1.0, false);
+  CHECK(std::abs(rev.rho - 2.125) <= 1e-15);
+
+  // Richardson's estimate [A8], m = 2, p = 2: e = (fine − coarse)/3; 1e-6 rad about z against
+  // atol = 1e-6 per unit step at h = 1: r² = ((1e-6/3)/(1e-6 + 8ε))²/2 ≈ 1/18.
+  State<double> start, coarse, fine;
+  fine.rotation = SO3<double>::exp(V3(0, 0, 1e-6));
+  const ErrorNorm<double> norm{1e-6, 0.0, 1.0};
+  const RichardsonEstimate<double> rich{2};
+  const double r2 = rich.squared_error(norm, {start, coarse, fine, 1.0, 2});
+  CHECK(std::abs(r2 - 1.0 / 18.0) <= 1e-8);
+  CHECK(rich.squared_error(norm, {start, coarse, fine, 1.0, 1}) == 0.0);  // one step: nothing to estimate
+
+  // The choice of estimate: the defect up to order 6, doubling above, Richardson's (m = 8)
+  // where the error scales with the load, m as given.
+  CHECK(detail::choose_estimate(ErrorEstimate::automatic, 4, false, 0).defect);
+  CHECK(detail::choose_estimate(ErrorEstimate::automatic, 8, false, 0).m == 2);
+  CHECK(detail::choose_estimate(ErrorEstimate::automatic, 4, true, 0).m == 8);
+  CHECK(detail::choose_estimate(ErrorEstimate::richardson, 4, false, 3).m == 3);
+  STATIC_REQUIRE(StepController<ToleranceController<double>>);
+  STATIC_REQUIRE(ErrorEstimator<DefectEstimate<Top>>);
+}
+
 #endif  // TROMPO_HAVE_BOOST

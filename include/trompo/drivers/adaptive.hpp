@@ -64,20 +64,32 @@
 //
 // No heap allocation in the step loop: the scratch of the events is reserved before it;
 // only solve()'s solution object grows (its vectors of nodes, t_eval states and events).
+//
+// The driver's parts (docs/adaptive.md, "The driver's parts"), each behind one concept:
+//   drivers/adaptive/error_estimate.hpp   ErrorEstimator: DefectEstimate [D4],
+//                                         RichardsonEstimate [A8]; the norm ErrorNorm [A2]
+//   drivers/adaptive/step_controller.hpp  StepController: ToleranceController [A3],
+//                                         ReversibleController [A5]
+//   drivers/adaptive/event_location.hpp   Event, events::, the locator (Brent's method) [A6]
+//   drivers/invariant_hold.hpp            the hold [A7]
+//   drivers/dense_output.hpp              the dense nodes and interpolant [D1]–[D4]
+// What stays here: the options and summary, the attempts (one step, or Richardson's m + 1),
+// their commits (dense nodes, events, a terminal event's real step), the step bounds (the
+// rotation cap, t_end) and the two loops, run_tolerance and run_reversible.
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <string>
-#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
+#include "trompo/drivers/adaptive/error_estimate.hpp"
+#include "trompo/drivers/adaptive/event_location.hpp"
+#include "trompo/drivers/adaptive/step_controller.hpp"
 #include "trompo/drivers/dense_output.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/drivers/invariant_hold.hpp"
@@ -86,20 +98,6 @@
 #include "trompo/schemes/scheme.hpp"
 
 namespace trompo {
-
-/// How the adaptive driver picks h.
-enum class StepControl {
-  tolerance,  ///< an error estimate per step, H211b on the error per unit step [A2], [A3]
-  reversible  ///< Hairer–Söderlind step density, explicit and time-reversible [A5]
-};
-
-/// How tolerance mode estimates the error of a step [A3].
-enum class ErrorEstimate {
-  automatic,   ///< richardson where the error scales with the load (the splitting); else defect up to order 6, doubling above
-  defect,      ///< the defect of the step's Lie–Hermite interpolant [D4]: the step plus 1–2 evaluations of Ω̇
-  doubling,    ///< richardson with m = 2: Ψ_{2h} against Ψ_h∘Ψ_h, three steps per two
-  richardson   ///< Ψ_{mh} against Ψ_h^m, advancing with the m steps [A8]: m + 1 steps per m
-};
 
 /// Options of the adaptive driver (names as SciPy's solve_ivp where they exist).
 template <class Scalar>
@@ -208,176 +206,12 @@ struct AdaptiveSummary {
   }
 };
 
-/// An event function g(t, Λ, Ω) with SciPy's `direction` (+1: g rising through 0, −1:
-/// falling, 0: both) and `terminal` (0: never; n ≥ 1: the n-th occurrence ends the run).
-/// Rising and falling are with increasing t, also in a backward run (SciPy's follow the
-/// order of integration): a tilt maximum is a maximum either way.
-template <class Scalar>
-struct Event {
-  /// A 3-vector of Scalar.
-  using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
-  /// The event's name (built-ins: nutation-max, nutation-min, axis-crossing, flip).
-  std::string name;
-  /// The event function g(t, Λ, Ω); an event is a zero of it.
-  std::function<Scalar(Scalar, const SO3<Scalar>&, const Vector3&)> g;
-  /// +1 rising, −1 falling, 0 both (with increasing t).
-  int direction = 0;
-  /// 0: never ends the run; n ≥ 1: the n-th occurrence ends it.
-  int terminal = 0;
-};
-
-/// The built-in events [A6].
-namespace events {
-/// g = d/dt(γ·ΛE) = γ·Λ(Ω × E): the rate of the cosine of the tilt between the body point E
-/// and the vertical γ. Its zeros rising (direction +1) are the tilt's maxima ("nutation-max",
-/// γ·ΛE smallest), falling (−1) its minima ("nutation-min").
-template <class Scalar>
-Event<Scalar> nutation(const Eigen::Matrix<Scalar, 3, 1>& E, const Eigen::Matrix<Scalar, 3, 1>& up, bool maximum,
-                       int terminal = 0) {
-  Event<Scalar> e;
-  e.name = maximum ? "nutation-max" : "nutation-min";
-  e.g = [E, up](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>& W) { return up.dot(L * W.cross(E)); };
-  e.direction = maximum ? 1 : -1;
-  e.terminal = terminal;
-  return e;
-}
-/// nutation() for a scene with gravity (E and γ of its gravity effect).
-template <class Scene>
-Event<typename Scene::Scalar> nutation(const Scene& scene, bool maximum, int terminal = 0) {
-  using Scalar = typename Scene::Scalar;
-  Eigen::Matrix<Scalar, 3, 1> E = Eigen::Matrix<Scalar, 3, 1>::Zero();
-  bool found = false;
-  std::apply([&](const auto&... eff) {
-    ((found = found || [&](const auto& x) {
-       if constexpr (requires { x.com_direction(); }) {
-         E = x.com_direction();
-         return true;
-       } else {
-         return false;
-       }
-     }(eff)),
-     ...);
-  }, scene.effects());
-  if (!found) detail::fail("event nutation: the scene has no gravity (no body point E to follow)");
-  return nutation<Scalar>(E, scene.momentum_axis(), maximum, terminal);
-}
-/// g = n·ΛA: the body axis A crossing the spatial plane of normal n ("axis-crossing").
-template <class Scalar>
-Event<Scalar> axis_crossing(const Eigen::Matrix<Scalar, 3, 1>& body_axis, const Eigen::Matrix<Scalar, 3, 1>& normal,
-                            int direction = 0, int terminal = 0) {
-  if (!detail::all_finite(body_axis) || !(body_axis.norm() > 0))
-    detail::fail("event axis-crossing: body axis must be finite and non-zero, got ", detail::to_text(body_axis));
-  if (!detail::all_finite(normal) || !(normal.norm() > 0))
-    detail::fail("event axis-crossing: plane normal must be finite and non-zero, got ", detail::to_text(normal));
-  Event<Scalar> e;
-  e.name = "axis-crossing";
-  const Eigen::Matrix<Scalar, 3, 1> A = body_axis.normalized(), n = normal.normalized();
-  e.g = [A, n](Scalar, const SO3<Scalar>& L, const Eigen::Matrix<Scalar, 3, 1>&) { return n.dot(L * A); };
-  e.direction = direction;
-  e.terminal = terminal;
-  return e;
-}
-/// g = u·JΩ, u the intermediate principal axis of J: a sign change is a flip of the body
-/// about that axis ("flip", the Dzhanibekov effect). Throws invalid_input, naming the
-/// principal moments, for a body with two of them equal (to 1e-12 of the largest): a
-/// symmetric body has no intermediate axis, and the event would silently find nothing.
-template <class Scene>
-Event<typename Scene::Scalar> flip(const Scene& scene, int terminal = 0) {
-  using Scalar = typename Scene::Scalar;
-  using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
-  Eigen::SelfAdjointEigenSolver<Matrix3> eig(scene.body().inertia());
-  const auto& m = eig.eigenvalues();  // ascending
-  if (!(m(1) - m(0) > Scalar(1e-12) * m(2) && m(2) - m(1) > Scalar(1e-12) * m(2)))
-    detail::fail("event flip: the body's principal moments ", m(0), ", ", m(1), ", ", m(2),
-                 " have two equal (a symmetric body): it has no intermediate axis to flip about");
-  const Eigen::Matrix<Scalar, 3, 1> u = eig.eigenvectors().col(1);  // ascending: the middle one
-  const Matrix3 J = scene.body().inertia();
-  Event<Scalar> e;
-  e.name = "flip";
-  e.g = [u, J](Scalar, const SO3<Scalar>&, const Eigen::Matrix<Scalar, 3, 1>& W) { return u.dot(J * W); };
-  e.direction = 0;
-  e.terminal = terminal;
-  return e;
-}
-/// A built-in event by its CLI name: nutation-max, nutation-min, flip, axis-crossing
-/// (body axis e3 crossing the horizontal plane of the momentum axis). Throws invalid_input
-/// for an unknown name or one the scene cannot have.
-template <class Scene>
-Event<typename Scene::Scalar> by_name(const Scene& scene, const std::string& name, int terminal = 0) {
-  using V = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
-  if (name == "nutation-max") return nutation(scene, true, terminal);
-  if (name == "nutation-min") return nutation(scene, false, terminal);
-  if (name == "flip") return flip(scene, terminal);
-  if (name == "axis-crossing") return axis_crossing<typename Scene::Scalar>(V::UnitZ(), scene.momentum_axis(), 0, terminal);
-  detail::fail("event: unknown name '", name, "' (nutation-max, nutation-min, axis-crossing, flip)");
-}
-}  // namespace events
-
 /// The default observer of integrate_adaptive: none.
 struct NoStepObserver {};
 /// The default event sink: none.
 struct NoEventSink {};
 
 namespace detail {
-
-/// Brent's root of f on [a, b] with f(a)·f(b) ≤ 0 (Brent 1973, "zeroin"), to |b − a| ≤
-/// 2·tol: the root bracket shrinks to a few ulp of t when tol = 2ε|t|.
-template <class Scalar, class F>
-Scalar brent_root(F&& f, Scalar a, Scalar b, Scalar fa, Scalar fb) {
-  using std::abs;
-  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  if (fa == Scalar(0)) return a;
-  if (fb == Scalar(0)) return b;
-  Scalar c = a, fc = fa, d = b - a, e = d;
-  for (int iter = 0; iter < 200; ++iter) {
-    if ((fb > 0) == (fc > 0)) {
-      c = a;
-      fc = fa;
-      d = e = b - a;
-    }
-    if (abs(fc) < abs(fb)) {
-      a = b;
-      b = c;
-      c = a;
-      fa = fb;
-      fb = fc;
-      fc = fa;
-    }
-    const Scalar tol = Scalar(2) * eps * abs(b) + std::numeric_limits<Scalar>::denorm_min();
-    const Scalar m = (c - b) / 2;
-    if (abs(m) <= tol || fb == Scalar(0)) return b;
-    if (abs(e) >= tol && abs(fa) > abs(fb)) {
-      Scalar p, q, r;
-      const Scalar s = fb / fa;
-      if (a == c) {
-        p = 2 * m * s;
-        q = 1 - s;
-      } else {
-        q = fa / fc;
-        r = fb / fc;
-        p = s * (2 * m * q * (q - r) - (b - a) * (r - 1));
-        q = (q - 1) * (r - 1) * (s - 1);
-      }
-      if (p > 0) q = -q;
-      else p = -p;
-      if (2 * p < std::min(3 * m * q - abs(tol * q), abs(e * q))) {
-        e = d;
-        d = p / q;
-      } else {
-        d = m;
-        e = m;
-      }
-    } else {
-      d = m;
-      e = m;
-    }
-    a = b;
-    fa = fb;
-    b += abs(d) > tol ? d : (m > 0 ? tol : -tol);
-    fb = f(b);
-  }
-  return b;
-}
 
 /// Whether T is a std::array (a composition's memory, AdaptiveLoop::assign).
 template <class T>
@@ -395,12 +229,6 @@ struct trajectory_memory<Traj> {
   using type = typename Traj::Memory;
 };
 
-/// One event occurrence inside a step.
-template <class Scalar>
-struct Occurrence {
-  Scalar t;
-  int index;
-};
 
 /// The adaptive loop (integrate_adaptive and solve).
 template <class Stepper, class Traj, class Observer, class Sink>
@@ -415,16 +243,17 @@ struct AdaptiveLoop {
   const AdaptiveOptions<Scalar>& opt;
   Observer& observer;
   Sink& sink;
-  const std::vector<Event<Scalar>>* event_list;
   AdaptiveSummary<Scalar> sum{};
 
   AdaptiveLoop(const Stepper& st, Traj& tr, Scalar te, const AdaptiveOptions<Scalar>& o, Observer& ob, Sink& si,
                const std::vector<Event<Scalar>>* ev)
-      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si), event_list(ev) {
+      : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si) {
     using std::abs;
     span = opt.tolerance_over_span ? abs(te - tr.time) : Scalar(1);
     if (!(span > 0)) span = Scalar(1);
+    norm = ErrorNorm<Scalar>{opt.atol, opt.rtol, span};
     if (opt.hold_invariants) hold = InvariantHold<SceneOf>(st.scene(), tr, st.keeps());
+    events.list = ev;
   }
   using SceneOf = std::decay_t<decltype(std::declval<const Stepper&>().scene())>;
   /// What the run holds at the first state's values [A7] (nothing unless opt.hold_invariants).
@@ -441,15 +270,19 @@ struct AdaptiveLoop {
   }
   /// The span T the tolerances are spread over (1: per unit time).
   Scalar span = Scalar(1);
+  /// The error norm per unit step [A2] (drivers/adaptive/error_estimate.hpp).
+  ErrorNorm<Scalar> norm{};
 
   static constexpr bool observed = !std::is_same_v<std::decay_t<Observer>, NoStepObserver>;
-  bool dense() const { return observed || (event_list && !event_list->empty()); }
+  bool dense() const { return observed || events.any(); }
 
   // Tolerance mode with the defect estimate [D4]: its quadrature (Simpson's for order 2,
   // Hermite's for orders 4 and 6), and the dense nodes of the current state (a) and of the
   // attempt (b), kept so that each accepted step evaluates one new node.
   bool use_defect = false;
-  DefectRule defect_rule = DefectRule::simpson;
+  DefectEstimate<SceneOf> defect{};
+  RichardsonEstimate<Scalar> richardson{};
+  static_assert(ErrorEstimator<DefectEstimate<SceneOf>> && ErrorEstimator<RichardsonEstimate<Scalar>>);
   /// Steps per attempt: Richardson's m [A8], 1 with the defect estimate.
   int m = 1;
   /// The defect attempt steps `traj` itself when the stepper's memory is only a hint (a
@@ -485,31 +318,10 @@ struct AdaptiveLoop {
   bool have_node_a = false;
   LieHermite<Scalar> attempt_segment{};
 
-  // event scratch, reserved before the loop
-  std::vector<Scalar> g_prev{};
-  std::vector<int> remaining{};
-  std::vector<Occurrence<Scalar>> found{};
+  /// The events [A6] (drivers/adaptive/event_location.hpp), their scratch reserved before the loop.
+  EventLocator<Scalar> events{};
 
   Scalar direction() const { return t_end >= traj.time ? Scalar(1) : Scalar(-1); }
-
-  /// x^n for n ≥ 0 by squarings.
-  static Scalar integer_power(Scalar x, int n) {
-    Scalar result(1);
-    for (; n > 0; n >>= 1, x *= x)
-      if (n & 1) result *= x;
-    return result;
-  }
-
-  /// r² of the error norm per unit step [A2] of Richardson's estimate [A8]
-  /// (fine − coarse)/(m^p − 1) of an attempt of span h.
-  Scalar error_per_unit_step(const State<Scalar>& start, const State<Scalar>& coarse_end, const State<Scalar>& fine,
-                             Scalar h) const {
-    if (attempt_m == 1) return Scalar(0);  // a few ulp of t: nothing to estimate
-    const Scalar k = integer_power(Scalar(attempt_m), stepper.order()) - Scalar(1);  // m^p − 1
-    const Vector3 e_rot = (coarse_end.rotation.inverse() * fine.rotation).log() / k;
-    const Vector3 e_om = (fine.omega - coarse_end.omega) / k;
-    return error_norm_squared(e_rot, e_om, start.omega.squaredNorm(), fine.omega.squaredNorm(), h);
-  }
 
   /// The span |h| (≥ 0) of `steps` steps, each within max_step and the rotation cap
   /// |h||Ω| ≤ max_rotation (the span within the cap unless the coarse step turns freely),
@@ -524,31 +336,13 @@ struct AdaptiveLoop {
     return h_abs;
   }
 
-  /// The first attempt's span: m first steps (Hairer–Nørsett–Wanner II.4, in the norm of [A2]).
+  /// The first attempt's span: m first steps (Hairer–Nørsett–Wanner II.4, in the norm of
+  /// [A2]: ToleranceController::first_step), each within the caps.
   Scalar first_step() const {
-    using std::pow;
-    using std::sqrt;
     if (opt.first_step > 0) return capped(Scalar(m) * opt.first_step, traj.omega, m);
-    const auto& scene = stepper.scene();
-    const State<Scalar>& y0 = traj;
-    const Vector3 w0 = y0.omega, wd0 = omega_rate(scene, y0);
-    const Scalar s_rot = opt.atol + opt.rtol, s_om = opt.atol + opt.rtol * w0.norm();
-    const auto rms = [](Scalar a, Scalar b) { return sqrt((a * a + b * b) / 2); };
-    const Scalar d0 = rms(Scalar(1) / s_rot, w0.norm() / s_om);
-    const Scalar d1 = rms(w0.norm() / s_rot, wd0.norm() / s_om);
-    Scalar h0 = (d0 < Scalar(1e-5) || d1 < Scalar(1e-5)) ? Scalar(1e-6) : Scalar(0.01) * d0 / d1;
-    h0 = capped(h0, w0);
-    State<Scalar> y1 = y0;  // explicit Euler
-    y1.rotation = y0.rotation * SO3<Scalar>::exp(direction() * h0 * w0);
-    y1.omega = w0 + direction() * h0 * wd0;
-    y1.time = y0.time + direction() * h0;
-    const Vector3 wd1 = omega_rate(scene, y1);
-    const Scalar d2 = rms((y1.omega - w0).norm() / s_rot, (wd1 - wd0).norm() / s_om) / h0;
-    const int p = stepper.order();
-    const Scalar dm = std::max(d1, d2);
-    const Scalar h1 = dm <= Scalar(1e-15) ? std::max(Scalar(1e-6), h0 * Scalar(1e-3))
-                                          : pow(Scalar(0.01) / dm, Scalar(1) / Scalar(p + 1));
-    return capped(Scalar(m) * std::min(Scalar(100) * h0, h1), w0, m);
+    const Scalar h = ToleranceController<Scalar>::first_step(stepper.scene(), traj, opt.atol, opt.rtol, stepper.order(),
+                                                             direction(), [&](Scalar x) { return capped(x, traj.omega); });
+    return capped(Scalar(m) * h, traj.omega, m);
   }
 
   /// The observer: observer(a, b), or observer(a, b, summary) for one that wants the counts.
@@ -561,55 +355,7 @@ struct AdaptiveLoop {
   }
 
   // ---- events ------------------------------------------------------------------------
-  void start_events() {
-    if (!event_list) return;
-    const std::size_t n = event_list->size();
-    g_prev.resize(n);
-    remaining.resize(n);
-    found.reserve(4 * n + 4);
-    for (std::size_t k = 0; k < n; ++k) {
-      const Event<Scalar>& e = (*event_list)[k];
-      if (!e.g) detail::fail("event '", e.name, "': no function");
-      if (e.direction < -1 || e.direction > 1) detail::fail("event '", e.name, "': direction must be -1, 0 or 1, got ", e.direction);
-      if (e.terminal < 0) detail::fail("event '", e.name, "': terminal must be >= 0, got ", e.terminal);
-      g_prev[k] = e.g(traj.time, traj.rotation, traj.omega);
-      remaining[k] = e.terminal;
-    }
-  }
-
-  static bool crosses(Scalar ga, Scalar gb, int dir) {
-    const bool up = ga < 0 && gb >= 0, down = ga > 0 && gb <= 0;
-    return dir > 0 ? up : dir < 0 ? down : (up || down);
-  }
-
-  /// The events of the step a → b on its interpolant, in the order of time (scratch `found`).
-  void locate(const LieHermite<Scalar>& seg, Scalar ta, Scalar tb) {
-    found.clear();
-    constexpr int samples = 4;  // sub-intervals: ends plus three interior points
-    for (std::size_t k = 0; k < event_list->size(); ++k) {
-      const Event<Scalar>& e = (*event_list)[k];
-      const auto g_at = [&](Scalar t) {
-        const State<Scalar> s = seg.state(t);
-        return e.g(t, s.rotation, s.omega);
-      };
-      Scalar t_lo = ta, g_lo = g_prev[k];
-      for (int i = 1; i <= samples; ++i) {
-        const Scalar t_hi = i == samples ? tb : ta + (tb - ta) * Scalar(i) / Scalar(samples);
-        const Scalar g_hi = g_at(t_hi);
-        // direction is the sign of dg/dt, in time (so nutation-max is a maximum backward too)
-        if (crosses(g_lo, g_hi, ta <= tb ? e.direction : -e.direction)) {
-          const Scalar root = brent_root<Scalar>(g_at, t_lo, t_hi, g_lo, g_hi);
-          found.push_back({root, static_cast<int>(k)});
-        }
-        t_lo = t_hi;
-        g_lo = g_hi;
-      }
-    }
-    const Scalar dir = direction();
-    std::sort(found.begin(), found.end(), [dir](const Occurrence<Scalar>& x, const Occurrence<Scalar>& y) {
-      return dir * x.t < dir * y.t;
-    });
-  }
+  void start_events() { events.start(events.list, traj); }
 
   // ---- the step ------------------------------------------------------------------------
   /// to = from. Of a composition's memory (one base memory per sub-step index, for the
@@ -625,24 +371,6 @@ struct AdaptiveLoop {
     }
   }
 
-  /// The square r² of the RMS error norm per unit step [A2] of the estimate (e_ξ, e_Ω) of
-  /// a step a → b, given |Ω_a|² and |Ω_b|²:
-  /// r = RMS(|e_ξ|/(s_Λ|h|/T + 8ε), |e_Ω|/(s_Ω|h|/T + 8ε|Ω|)), accepted when r ≤ 1. The
-  /// 8ε terms are the estimate's round-off (measured ≤ 5ε and ≤ 2ε|Ω| on the standard
-  /// cases): a step is never refused for its rounding, which does not shrink with h.
-  /// Squared, so that no square root lies between the estimate and the controller.
-  Scalar error_norm_squared(const Vector3& e_rot, const Vector3& e_om, Scalar omega2_a, Scalar omega2_b,
-                            Scalar h) const {
-    using std::abs;
-    using std::sqrt;
-    constexpr Scalar noise = Scalar(8) * std::numeric_limits<Scalar>::epsilon();
-    const Scalar w = sqrt(std::max(omega2_a, omega2_b));
-    const Scalar per_step = abs(h) / span;  // error per unit step against tol/T
-    const Scalar s_rot = (opt.atol + opt.rtol) * per_step + noise;
-    const Scalar s_om = (opt.atol + opt.rtol * w) * per_step + noise * w;
-    return (e_rot.squaredNorm() / (s_rot * s_rot) + e_om.squaredNorm() / (s_om * s_om)) / Scalar(2);
-  }
-
   /// One attempt of span h ending at t_next: on success `next` holds the state the run
   /// advances with (Ψ_h(y) with the defect estimate, Ψ_{h/m}^m(y) with Richardson's) and the
   /// return value is r², r the error per unit step; on failure the status is set, traj untouched.
@@ -650,7 +378,7 @@ struct AdaptiveLoop {
     if (!use_defect) return attempt_richardson(h, next, status);
     // The estimate's interpolant [D4]: the cubic for order 2 (its O(h⁴) error enters the
     // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
-    const bool quintic_estimate = defect_rule != DefectRule::simpson;
+    const bool quintic_estimate = defect.quintic();
     if (!have_node_a) {
       node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj), quintic_estimate);
       have_node_a = true;
@@ -668,9 +396,7 @@ struct AdaptiveLoop {
     node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end), quintic_estimate);
     if (quintic_estimate) add_second_rate(stepper.scene(), node_a);  // a cubic attempt's start
     attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
-    Vector3 e_rot, e_om;
-    defect_estimate(stepper.scene(), node_a, node_b, attempt_segment, defect_rule, e_rot, e_om);
-    return error_norm_squared(e_rot, e_om, node_a.state.omega.squaredNorm(), end.omega.squaredNorm(), h);
+    return defect.squared_error(norm, {node_a, node_b, attempt_segment, h});
   }
 
   /// After a rejected attempt: the state before it (stepped in place), or nothing.
@@ -700,7 +426,7 @@ struct AdaptiveLoop {
     }
     status = r.status;
     if (!r.ok()) return Scalar(0);
-    return error_per_unit_step(traj, coarse, fine, h);
+    return richardson.squared_error(norm, {traj, coarse, fine, h, attempt_m});
   }
 
   /// Keeps what the j-th inner step of Richardson's attempt left (`substates`).
@@ -794,11 +520,10 @@ struct AdaptiveLoop {
     const LieHermite<Scalar> seg = node_b_ready && !held_now && attempt_segment.quintic() == opt.quintic
                                        ? attempt_segment
                                        : LieHermite<Scalar>(a, b, opt.quintic);
-    if (event_list && !event_list->empty()) {
-      locate(seg, before.time, t_next);
-      for (const Occurrence<Scalar>& o : found) {
-        const std::size_t k = static_cast<std::size_t>(o.index);
-        const bool terminal = remaining[k] > 0 && --remaining[k] == 0;
+    if (events.any()) {
+      events.locate(seg, before.time, t_next, direction());
+      for (const Occurrence<Scalar>& o : events.found) {
+        const bool terminal = events.ends_run(static_cast<std::size_t>(o.index));
         if (!terminal) {
           if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
           continue;
@@ -830,10 +555,7 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::event;
         return false;
       }
-      for (std::size_t k = 0; k < event_list->size(); ++k) {
-        const State<Scalar>& s = now;
-        g_prev[k] = (*event_list)[k].g(s.time, s.rotation, s.omega);
-      }
+      events.passed(now);
     }
     if constexpr (observed) notify(a, b);
     if (!stepped_in_place) assign(traj, next);
@@ -871,14 +593,11 @@ struct AdaptiveLoop {
   /// The estimate of opt.estimate: the defect, or Richardson's with its m [A8].
   void choose_estimate() {
     const int p = stepper.order();
-    ErrorEstimate e = opt.estimate;
-    if (e == ErrorEstimate::automatic)  // above order 6: doubling, or Richardson's with the m given
-      e = error_scales_with_load(stepper) ? ErrorEstimate::richardson
-          : p <= 6                        ? ErrorEstimate::defect
-          : opt.substeps != 0             ? ErrorEstimate::richardson
-                                          : ErrorEstimate::doubling;
-    use_defect = e == ErrorEstimate::defect;
-    m = use_defect ? 1 : opt.substeps != 0 ? opt.substeps : e == ErrorEstimate::doubling ? 2 : 8;
+    const detail::EstimateChoice c = detail::choose_estimate(opt.estimate, p, error_scales_with_load(stepper), opt.substeps);
+    use_defect = c.defect;
+    m = c.m;
+    defect = DefectEstimate<SceneOf>{&stepper.scene(), DefectEstimate<SceneOf>::rule_for(p)};  // [D4]
+    richardson.order = p;
     attempt_m = m;
     sum.substeps = m;
     coarse_turns_freely = !use_defect && error_scales_with_load(stepper);
@@ -886,16 +605,9 @@ struct AdaptiveLoop {
 
   void run_tolerance() {
     using std::abs;
-    using std::pow;
-    using std::sqrt;
     const Scalar dir = direction();
-    const int p = stepper.order();
     choose_estimate();
-    Scalar h = dir * first_step();
-    Scalar r2_prev = Scalar(1), h_prev = h;
-    bool have_prev = false;
-    Scalar growth_cap = opt.max_factor;
-    defect_rule = p <= 2 ? DefectRule::simpson : DefectRule::hermite;  // [D4]
+    ToleranceController<Scalar> ctl(dir * first_step(), stepper.order(), opt.safety, opt.min_factor, opt.max_factor);
     Traj next = traj;
     std::int64_t attempts = 0;
     while (traj.time != t_end) {
@@ -903,9 +615,9 @@ struct AdaptiveLoop {
         sum.status = AdaptiveStatus::failed;
         return;
       }
-      h = dir * capped(abs(h), traj.omega, m);
+      ctl.h = dir * capped(abs(ctl.h), traj.omega, m);
       bool last = false;
-      const Scalar h_clipped = clip(h, last);
+      const Scalar h_clipped = clip(ctl.proposal(), last);
       if (too_small(h_clipped) && !last) {
         sum.status = AdaptiveStatus::failed;
         return;
@@ -920,58 +632,30 @@ struct AdaptiveLoop {
       if (status != StepStatus::ok) {  // Newton failure: shorter step, nothing committed
         ++sum.failures;
         sum.failure = status;
-        h = h_try / Scalar(4);
-        growth_cap = Scalar(1.5);
-        if (too_small(h)) {
+        ctl.fail(h_try);
+        if (too_small(ctl.proposal())) {
           sum.status = AdaptiveStatus::failed;
           return;
         }
         continue;
       }
-      if (!(r2 <= Scalar(1))) {  // rejected: the elementary controller, h shrinks: (1/r)^{1/p}
+      if (!(r2 <= Scalar(1))) {  // rejected
         ++sum.rejected;
-        const Scalar f = std::isfinite(static_cast<double>(r2))
-                             ? std::max(opt.min_factor, opt.safety * pow(r2, -Scalar(1) / Scalar(2 * p)))
-                             : opt.min_factor;
-        h = h_try * std::min(f, Scalar(0.9));
-        growth_cap = Scalar(1);
+        ctl.reject(h_try, r2);
         undo();
         continue;
       }
-      // accepted: H211b (Söderlind 2003): h_{n+1} = h_n (1/r_n)^{1/4p} (1/r_{n−1})^{1/4p} (h_n/h_{n−1})^{−1/4}
-      // = h_n (r_n² r_{n−1}² ρ^{2p})^{−1/8p}, ρ = h_n/h_{n−1}: one pow, ρ^{2p} by squarings.
-      const Scalar rr2 = std::max(r2, Scalar(1e-20));
-      Scalar f;
-      if (have_prev)
-        f = opt.safety * pow(rr2 * r2_prev * integer_power(h_try / h_prev, 2 * p), -Scalar(1) / Scalar(8 * p));
-      else
-        f = opt.safety * pow(rr2, -Scalar(1) / Scalar(2 * p));
-      f = std::clamp(f, opt.min_factor, std::min(opt.max_factor, growth_cap));
-      growth_cap = opt.max_factor;
+      ctl.accept(h_try, r2, last);
       sum.h_last = h_try / Scalar(attempt_m);
       if (!commit_attempt(next, t_next)) break;
-      r2_prev = rr2;
-      h_prev = h_try;
-      have_prev = true;
-      // after a shortened last step, keep the controller's h for a continuation
-      h = (last ? h : h_try) * f;
     }
     sum.time = traj.time;
   }
 
   // ---- reversible mode [A5] ----------------------------------------------------------------
+  /// The floor ω₀ of the control function Q (drivers/adaptive/step_controller.hpp).
   Scalar omega_floor() const {
-    using std::sqrt;
-    if (opt.omega_floor > 0) return opt.omega_floor;
-    const Vector3 wd = omega_rate(stepper.scene(), static_cast<const State<Scalar>&>(traj));
-    return std::max({Scalar(1e-3) * traj.omega.norm(), sqrt(wd.norm()), Scalar(1e-8)});
-  }
-  /// Q = √(|Ω|² + ω₀²) and G = d/dt log Q = Ω·Ω̇/Q² ([A5]).
-  void control(const State<Scalar>& s, Scalar w0, Scalar& Q, Scalar& G) const {
-    using std::sqrt;
-    const Scalar q2 = s.omega.squaredNorm() + w0 * w0;
-    Q = sqrt(q2);
-    G = s.omega.dot(omega_rate(stepper.scene(), s)) / q2;
+    return ReversibleController<Scalar>::omega_floor(stepper.scene(), traj, opt.omega_floor);
   }
 
   void run_reversible(Scalar epsilon) {
@@ -979,11 +663,9 @@ struct AdaptiveLoop {
     const Scalar dir = direction();
     const Scalar w0 = omega_floor();
     Scalar Q, G;
-    control(traj, w0, Q, G);
+    ReversibleController<Scalar>::control(stepper.scene(), traj, w0, Q, G);
     sum.epsilon = epsilon;
-    // ρ_{1/2} = Q(y0) + ½ ε G(y0); ρ_{n+3/2} = ρ_{n+1/2} + ε G(y_{n+1}) (backward: −G)
-    Scalar rho = Q + dir * epsilon * G / Scalar(2);
-    const Scalar rho_floor = Scalar(1e-3) * Q;
+    ReversibleController<Scalar> ctl(epsilon, dir, Q, G);
     Traj next = traj;
     std::int64_t steps = 0;
     while (traj.time != t_end) {
@@ -992,7 +674,7 @@ struct AdaptiveLoop {
         return;
       }
       bool last = false;
-      const Scalar h = clip(dir * epsilon / std::max(rho, rho_floor), last);
+      const Scalar h = clip(ctl.proposal(), last);
       if (too_small(h) && !last) {
         // ρ overflowed (Ω·Ω̇ beyond the range) or is NaN, or h fell below a few ulp of t:
         // a step of h = 0 would throw in the recovery below, one below ulp(t) would not
@@ -1024,12 +706,42 @@ struct AdaptiveLoop {
       ++sum.accepted;
       sum.h_last = h;
       if (!commit(next, t_next)) break;
-      control(traj, w0, Q, G);
-      rho += dir * epsilon * G;
+      ReversibleController<Scalar>::control(stepper.scene(), traj, w0, Q, G);
+      ctl.accept(h, G, last);
     }
     sum.time = traj.time;
   }
 };
+
+/// Reversible mode's ε when none is given [A5]: 20 tolerance-mode attempts on a copy of
+/// `state`; ε = the mean of |h|·Q (Q with the floor w0) along their steps. Their Newton
+/// iterations and base steps are added to `sum`.
+template <class Stepper, class StateT>
+typename Stepper::Scalar pilot_epsilon(const Stepper& stepper, const StateT& state, typename Stepper::Scalar t_end,
+                                       const AdaptiveOptions<typename Stepper::Scalar>& options,
+                                       typename Stepper::Scalar w0, AdaptiveSummary<typename Stepper::Scalar>& sum) {
+  using Scalar = typename Stepper::Scalar;
+  StateT pilot = state;
+  AdaptiveOptions<Scalar> po = options;
+  po.control = StepControl::tolerance;
+  po.max_steps = 20;
+  Scalar acc = Scalar(0);
+  int n = 0;
+  auto pobs = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+    using std::abs;
+    using std::sqrt;
+    acc += abs(b.state.time - a.state.time) * sqrt(a.state.omega.squaredNorm() + w0 * w0);
+    ++n;
+  };
+  NoEventSink none;
+  AdaptiveLoop<Stepper, StateT, decltype(pobs), NoEventSink> pl(stepper, pilot, t_end, po, pobs, none, nullptr);
+  pl.run_tolerance();
+  sum.iterations += pl.sum.iterations;
+  sum.base_steps += pl.sum.base_steps;
+  if (n == 0) detail::fail("adaptive: reversible mode could not set epsilon (the pilot took no step: ",
+                           pl.sum.message(), "); give epsilon");
+  return acc / Scalar(n);
+}
 
 template <class Stepper>
 constexpr bool is_processed() {
@@ -1077,31 +789,9 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
     if (options.control == StepControl::tolerance) {
       loop.run_tolerance();
     } else {
-      Scalar epsilon = options.epsilon;
-      if (epsilon == Scalar(0)) {
-        // Pilot [A5]: 20 tolerance-mode attempts on a copy; ε = mean of |h|·Q along their steps.
-        StateT pilot = state;
-        AdaptiveOptions<Scalar> po = options;
-        po.control = StepControl::tolerance;
-        po.max_steps = 20;
-        const Scalar w0 = loop.omega_floor();
-        Scalar acc = Scalar(0);
-        int n = 0;
-        auto pobs = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
-          using std::abs;
-          using std::sqrt;
-          acc += abs(b.state.time - a.state.time) * sqrt(a.state.omega.squaredNorm() + w0 * w0);
-          ++n;
-        };
-        NoEventSink none;
-        detail::AdaptiveLoop<Stepper, StateT, decltype(pobs), NoEventSink> pl(stepper, pilot, t_end, po, pobs, none, nullptr);
-        pl.run_tolerance();
-        loop.sum.iterations += pl.sum.iterations;
-        loop.sum.base_steps += pl.sum.base_steps;
-        if (n == 0) detail::fail("adaptive: reversible mode could not set epsilon (the pilot took no step: ",
-                                 pl.sum.message(), "); give epsilon");
-        epsilon = acc / Scalar(n);
-      }
+      const Scalar epsilon = options.epsilon != Scalar(0)
+                                 ? options.epsilon
+                                 : detail::pilot_epsilon(stepper, state, t_end, options, loop.omega_floor(), loop.sum);
       loop.run_reversible(epsilon);
     }
     loop.sum.time = state.time;

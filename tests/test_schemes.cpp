@@ -533,8 +533,8 @@ TEST_CASE("Reference table of theory section 7, HT0 to t = 1 in 100/200/400 step
   const double other = trompo_test::frobenius(Mat3(kappa_L - paper::run(paper::Form::alpha_half, 1.0 / 400, 400).L));
   INFO("independent Simo-kappa and Simo-alpha 1/2 at 400 steps: apart " << other);
   CHECK(other >= 1e-3 * simo_alpha_error[2]);
-  // docs/theory.md §7 and the README: Géradin–Bauchau's error constant is 7–9× Simo's on
-  // HT0 (measured 7.0, 6.8, 6.7 × Simo-α's; 8.7, 8.6, 8.6 × Simo-κ's).
+  // docs/theory.md §7 and the README: Géradin–Bauchau's error is 6.7–8.7× Simo's on HT0
+  // (measured 7.0, 6.8, 6.7 × Simo-α's; 8.7, 8.6, 8.6 × Simo-κ's).
   for (int k = 0; k < 3; ++k) {
     INFO("GB / Simo-alpha attitude error at " << steps[k] << " steps: " << gb_error[k] / simo_alpha_error[k] << ", GB / Simo-kappa "
                                               << gb_error[k] / simo_kappa_error[k]);

@@ -574,7 +574,7 @@ std::string with_entry(const Scene& scene, const trompo::State<double>& s, Reade
 
 /// The sampled driver on a control scene: a controller of drawn (possibly wild) commands
 /// sampled every T, held, and fixed steps between the samples by a drawn wheel-carrying
-/// scheme. Contract: integrate_sampled throws invalid_input or returns; ok means the state
+/// scheme, or (Simo-κ) adaptive steps of drawn options. Contract: integrate_sampled throws invalid_input or returns; ok means the state
 /// is finite at t_end exactly; otherwise the state is finite at a time in [t0, t_end].
 template <class Scene>
 std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader& in, bool wild) {
@@ -605,7 +605,22 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
     switch (in.choose(3)) {
       case 0: {
         Stepper<SimoKappa, Scene> st(SimoKappa{}, scene);
-        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+        if (in.byte() & 1) {
+          // Adaptive holds: each a new integrate_adaptive run to the next sample, with drawn
+          // tolerances (raw doubles when wild), either step control, any estimate and at most
+          // 48 attempts a hold. (One byte more than the fixed holds read: a corpus input that
+          // ends here keeps its fixed-step run.)
+          AdaptiveOptions<double> opt;
+          opt.rtol = wild && (in.byte() & 1) ? in.raw() : in.magnitude(-14, 0, false, false);
+          opt.atol = wild && (in.byte() & 1) ? in.raw() : in.magnitude(-14, 0, false, false);
+          const std::uint8_t how = in.byte();
+          opt.control = (how & 3) == 3 ? StepControl::reversible : StepControl::tolerance;
+          opt.estimate = static_cast<ErrorEstimate>((how >> 2) & 3);
+          opt.max_steps = 1 + static_cast<std::int64_t>(in.choose(48));
+          sum = integrate_sampled(st, s, t_end, period, ctrl, AdaptiveSteps<double>{opt});
+        } else {
+          sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+        }
         break;
       }
       case 1: {

@@ -566,8 +566,7 @@ TEST_CASE("dense output: orthogonal, and of order 6 (quintic) and 4 (cubic) per 
       CHECK(orth <= 1e-14);
       if (prev > 0) {
         const double q = std::log2(prev / err);
-        CHECK(q >= (quintic ? 5.5 : 3.5));
-        CHECK(q <= (quintic ? 6.6 : 4.6));
+        CHECK(std::abs(q - (quintic ? 6 : 4)) <= 0.3);  // measured 6.00, 6.01 and 3.99, 4.01
       }
       prev = err;
     }

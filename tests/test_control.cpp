@@ -372,6 +372,47 @@ TEST_CASE("sampled: adaptive steps between the samples", "[control]") {
   CHECK((f.rotation.matrix() - s.rotation.matrix()).norm() <= 1e-8);
 }
 
+// An adaptive hold stopped by max_steps (its run failed with no step failure) stops the sampled
+// run and says so: found by the fuzzer, which saw ok() at t = 1e-6 of t_end = 8.1.
+TEST_CASE("sampled: an adaptive hold stopped by max_steps is not ok (Too many steps., time short of t_end)", "[control]") {
+  Wheels rw = four_wheels();
+  using Sc = Scene<double, Wheels>;
+  ComposedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(900, 800, 600).asDiagonal()), rw), 4);
+  State<double> s;
+  s.omega = Vec3(0.05, -0.1, 0.2);
+  stepper.scene().effect<Wheels>().start(0, s.omega);
+  int calls = 0;
+  auto ctrl = [&](const Sample<double>&) {
+    ++calls;
+    Command<double> c;
+    c.wheel_torques = WheelVector::Constant(4, 0.2);
+    return c;
+  };
+  AdaptiveOptions<double> opt;
+  opt.rtol = 1e-10;
+  opt.atol = 1e-10;
+  opt.max_steps = 2;  // a hold of 0.5 at 1e-10 takes more (the test above: ~10 a hold)
+  const auto sum = integrate_sampled(stepper, s, 10.0, 0.5, ctrl, AdaptiveSteps<double>{opt});
+  INFO("t = " << s.time << ", steps " << sum.steps << ", reason " << sum.reason());
+  CHECK_FALSE(sum.ok());
+  CHECK(sum.too_many_steps);
+  CHECK(sum.status == StepStatus::ok);  // no step failed
+  CHECK(sum.reason() == "Too many steps.");
+  CHECK(s.time > 0.0);
+  CHECK(s.time < 0.5);  // stopped inside the first hold
+  CHECK(sum.time == s.time);
+  CHECK(calls == 1);
+  // The same run with room for its steps reaches t_end.
+  State<double> r;
+  r.omega = Vec3(0.05, -0.1, 0.2);
+  stepper.scene().effect<Wheels>().start(0, r.omega);
+  opt.max_steps = 10000;
+  const auto whole = integrate_sampled(stepper, r, 10.0, 0.5, ctrl, AdaptiveSteps<double>{opt});
+  CHECK(whole.ok());
+  CHECK_FALSE(whole.too_many_steps);
+  CHECK(r.time == 10.0);
+}
+
 // ---- torque laws --------------------------------------------------------------------
 
 namespace {

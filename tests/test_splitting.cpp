@@ -53,21 +53,25 @@ std::vector<double> observed_orders(const Scheme& scheme, const Scene& scene, co
   for (int k = 0; k < 4; ++k) runs.push_back(run(scheme, scene, s0, t_end, n0 << k));
   std::vector<double> d, p;
   for (int k = 0; k < 3; ++k) d.push_back(distance(runs[k], runs[k + 1]));
-  // A difference near round-off (≤ 1e-12 in double) says nothing about the order.
+  // Both pairs, always: each caller's n0 keeps the finest difference above round-off (the
+  // differences' own round-off is ~1e-14 in double: the order-6 methods' finest, 2.7e-13 on
+  // HT1, still give 5.99), so no order goes unchecked. (It was: the fine pair dropped below
+  // 1e4 eps, unreported.)
   const double eps = double(std::numeric_limits<typename Scene::Scalar>::epsilon());
-  const double floor = std::is_same_v<typename Scene::Scalar, float> ? 100 * eps : 1e4 * eps;
-  for (int k = 0; k < 2; ++k)
-    if (k == 0 || d[k + 1] > floor) p.push_back(std::log2(d[k] / d[k + 1]));
+  const double floor = std::is_same_v<typename Scene::Scalar, float> ? 100 * eps : 1e3 * eps;
+  for (int k = 0; k < 2; ++k) p.push_back(std::log2(d[k] / d[k + 1]));
   INFO("differences " << d[0] << " " << d[1] << " " << d[2]);
-  REQUIRE(d[1] > floor);
+  REQUIRE(d[2] > floor);
   return p;
 }
 
+/// n0 for the orders 2 and 4, n6 for order 6 (fewer steps: its finest difference must stay
+/// above round-off).
 template <class Scheme, class Case>
-void check_orders(const Case& c, double t_end, long n0) {
+void check_orders(const Case& c, double t_end, long n0, long n6) {
   for (SplittingMethod m : all_methods) {
     const Scheme scheme(m);
-    const std::vector<double> p = observed_orders(scheme, c.scene, c.initial, t_end, n0);
+    const std::vector<double> p = observed_orders(scheme, c.scene, c.initial, t_end, order_of(m) == 6 ? n6 : n0);
     INFO(to_string(m) << ": observed orders " << p[0] << ", " << p.back());
     for (double q : p) CHECK(std::abs(q - order_of_accuracy(scheme)) < 0.3);
   }
@@ -101,10 +105,10 @@ double max_relative_energy_error(const Scheme& scheme, const Scene& scene, const
 }  // namespace
 
 TEST_CASE("splitting: observed orders 2, 4, 6 on HT1, HT2, a full-inertia top and FB1", "[splitting]") {
-  SECTION("HT1") { check_orders<Splitting>(cases::ht1<double>(), 1.0, 20); }
-  SECTION("HT2") { check_orders<Splitting>(cases::ht2<double>(), 0.5, 20); }
-  SECTION("full inertia, asymmetric") { check_orders<Splitting>(FullInertiaTop{}, 1.0, 20); }
-  SECTION("HT0 with the energy projection") { check_orders<SplittingProjected>(cases::ht0<double>(), 1.0, 40); }
+  SECTION("HT1") { check_orders<Splitting>(cases::ht1<double>(), 1.0, 20, 10); }
+  SECTION("HT2") { check_orders<Splitting>(cases::ht2<double>(), 0.5, 20, 10); }
+  SECTION("full inertia, asymmetric") { check_orders<Splitting>(FullInertiaTop{}, 1.0, 20, 20); }
+  SECTION("HT0 with the energy projection") { check_orders<SplittingProjected>(cases::ht0<double>(), 1.0, 40, 40); }
 }
 
 TEST_CASE("splitting: the near-integrable compositions reach order 4 on asymmetric tops", "[splitting]") {
@@ -125,14 +129,14 @@ TEST_CASE("splitting: the near-integrable compositions reach order 4 on asymmetr
     std::printf("%s: observed orders full-inertia top %.2f %.2f, asymmetric HT2 %.2f %.2f\n", to_string(m), p1[0],
                 p1.back(), p2[0], p2.back());
     INFO(to_string(m));
-    for (double q : p1) CHECK(q > 3.7);
-    for (double q : p2) CHECK(q > 3.7);
+    for (double q : p1) CHECK(std::abs(q - 4) < 0.3);  // measured 3.99-4.15
+    for (double q : p2) CHECK(std::abs(q - 4) < 0.3);  // measured 3.80-4.22
   }
   // Chin on the exact free flow stays of order 4 (6 for its triple jump) on asymmetric tops.
   for (SplittingMethod m : {SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump}) {
     const std::vector<double> p = observed_orders(Splitting(m), ht2a, s2, 1.0, 10);
     INFO(to_string(m) << ": " << p[0] << " " << p.back());
-    for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.4);
+    for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.3);
   }
 }
 
@@ -369,6 +373,7 @@ TEST_CASE("splitting: float and long double", "[splitting]") {
     const auto c = cases::ht1<float>();
     const std::vector<double> p = observed_orders(Splitting{}, c.scene, c.initial, 1.0f, 10);
     CHECK(std::abs(p[0] - 2) < 0.3);
+    CHECK(std::abs(p[1] - 2) < 0.3);
   }
   SECTION("long double, Chin order 4 below double's floor") {
     const auto c = cases::ht1<long double>();
@@ -401,7 +406,7 @@ TEST_CASE("splitting: effects as sub-flows", "[splitting]") {
     for (SplittingMethod m : all_methods) {
       const std::vector<double> p = observed_orders(Splitting(m), gyro, s0, 2.0, 20);
       INFO(to_string(m) << ": " << p[0] << ", " << p.back());
-      CHECK(std::abs(p.back() - order_of(m)) < 0.3);
+      for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.3);
     }
     const State<double> s = run(Splitting(SplittingMethod::suzuki_5), gyro, s0, 10.0, 1000);
     const V3 pi0 = gyro.spatial_momentum(s0);
@@ -413,7 +418,7 @@ TEST_CASE("splitting: effects as sub-flows", "[splitting]") {
     for (SplittingMethod m : {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9}) {
       const std::vector<double> p = observed_orders(Splitting(m), scene, s0, 1.0, 20);
       INFO(to_string(m) << ": " << p[0] << ", " << p.back());
-      CHECK(std::abs(p.back() - order_of(m)) < 0.3);
+      for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.3);
     }
     // The free body with damping only: H decays at every step (each sub-flow either keeps
     // T or is the exact decay).
@@ -436,7 +441,7 @@ TEST_CASE("splitting: effects as sub-flows", "[splitting]") {
     for (SplittingMethod m : {SplittingMethod::strang, SplittingMethod::suzuki_5, SplittingMethod::kahan_li_9}) {
       const std::vector<double> p = observed_orders(Splitting(m), scene, s0, 1.0, 20);
       INFO(to_string(m) << ": " << p[0] << ", " << p.back());
-      CHECK(std::abs(p.back() - order_of(m)) < 0.3);
+      for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.3);
     }
   }
   SECTION("a user potential: Chin order 4, same as gravity written out") {
@@ -451,7 +456,7 @@ TEST_CASE("splitting: effects as sub-flows", "[splitting]") {
     for (SplittingMethod m : {SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump}) {
       const std::vector<double> p = observed_orders(Splitting(m), user, s0, 1.0, 20);
       INFO(to_string(m) << ": " << p[0] << ", " << p.back());
-      CHECK(std::abs(p.back() - order_of(m)) < 0.3);
+      for (double q : p) CHECK(std::abs(q - order_of(m)) < 0.3);
       const State<double> a = run(Splitting(m), user, s0, 1.0, 50), b = run(Splitting(m), top, s0, 1.0, 50);
       CHECK(distance(a, b) < 1e-9);
     }

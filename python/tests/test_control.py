@@ -4,6 +4,7 @@ called exactly at the samples; the three ways to give the initial attitude agree
 controller and a non-finite command end the run with the rows so far; unknown keywords are
 TypeErrors with a suggestion; the GIL is released while C++ integrates."""
 import math
+import sys
 import threading
 import traceback
 
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 import trompo
-from conftest import run_cli
+from conftest import import_or_skip, run_cli
 
 RPM = 2 * math.pi / 60
 JS = 50 / (6000 * RPM)  # 50 N m s at 6000 rpm
@@ -201,37 +202,48 @@ def test_unknown_keywords_are_type_errors_with_a_suggestion():
 
 
 def test_the_gil_is_released_while_cpp_integrates():
-    """Two samples: at the first the controller lets a worker thread go; at the second it
-    looks whether the worker ran. Between them only C++ runs (a long hold of 500 000 steps):
-    the worker can run there only if the GIL is released."""
+    """A worker thread runs while C++ integrates between two samples, shown without timing.
+    The switch interval is raised for the test, so that the interpreter never takes the GIL
+    from the controller: the worker can get it only where the engine releases it. The
+    controller lets the worker go at the first sample and ends the run (by raising) at the
+    first sample that finds it ran. Were the GIL held for the whole run, no sample would, and
+    the run would reach t_end (a slow failure, not a hang)."""
     sc, s0 = basilisk()
     go, worker_ran = threading.Event(), threading.Event()
-    seen = []
+    samples = []
+
+    class WorkerRan(Exception):
+        pass
 
     def worker():
         go.wait()
         worker_ran.set()
 
     def f(t, R, W, wheel_speeds, memory):
-        if t > 0:
-            seen.append(worker_ran.is_set())  # first thing at the second sample
-        else:
-            go.set()
+        samples.append(t)
+        if worker_ran.is_set():
+            raise WorkerRan(f"seen at sample {len(samples)}")
+        go.set()
         return None
 
     thread = threading.Thread(target=worker)
     thread.start()
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e4)
     try:
-        trompo.control(sc, s0, 5000.0, dt=0.01, period=2500.0, controller=f, every=10**6)
+        with pytest.raises(trompo.ControlError) as info:
+            trompo.control(sc, s0, 1e5, dt=0.01, period=1.0, controller=f, every=10**6)
     finally:
+        sys.setswitchinterval(interval)
         go.set()
         thread.join()
-    assert seen == [True]
+    assert isinstance(info.value.__cause__, WorkerRan), info.value
+    assert len(samples) >= 2 and samples[-1] < 1e5
 
 
 def test_the_example_runs_and_plots(tmp_path):
     """examples/python/attitude_control.py on a short run (matplotlib, Agg)."""
-    pytest.importorskip("matplotlib")
+    import_or_skip("matplotlib")  # an error under TROMPO_REQUIRE_ALL=1 (ctest)
     import os
     import pathlib
     import subprocess

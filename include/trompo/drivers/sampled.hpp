@@ -65,12 +65,14 @@ struct SampledSummary {
   std::int64_t failures = 0;    ///< failed step attempts (recovered or not)
   StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
   std::string command_error;    ///< why a command was refused (empty: none)
+  bool too_many_steps = false;  ///< an adaptive hold reached AdaptiveOptions::max_steps before its sample
   Scalar time = Scalar(0);      ///< where the run ended
   /// Whether the run reached t_end.
-  bool ok() const { return status == StepStatus::ok && command_error.empty(); }
+  bool ok() const { return status == StepStatus::ok && command_error.empty() && !too_many_steps; }
   /// Why it stopped, or "ok".
   std::string reason() const {
     if (!command_error.empty()) return command_error;
+    if (status == StepStatus::ok && too_many_steps) return "Too many steps.";
     return status == StepStatus::ok ? std::string("ok") : std::string(to_string(status));
   }
 };
@@ -109,6 +111,9 @@ struct AdaptiveSteps {
     sum.steps += s.accepted;
     sum.failures += s.failures;
     sum.status = s.failure;
+    // A run stopped by max_steps fails with no step failure (StepStatus::ok): the summary
+    // says so, rather than ok() at a time short of t_end (found by the fuzzer).
+    sum.too_many_steps = !s.ok() && s.failure == StepStatus::ok;
     return s.ok();
   }
 };

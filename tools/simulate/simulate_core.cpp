@@ -565,6 +565,7 @@ struct HoldAdaptive {
     sum.steps += s.accepted;
     sum.failures += s.failures;
     sum.status = s.failure;
+    sum.too_many_steps = !s.ok() && s.failure == trompo::StepStatus::ok;  // as AdaptiveSteps
     return s.ok();
   }
 };

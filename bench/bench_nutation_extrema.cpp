@@ -85,6 +85,7 @@ const std::vector<Config>& configs() {
       {"s8c-unheld", "the same, compensated state, hold_invariants = false"},
       {"split6", "splitting chin-triple-jump (order 6), tolerance control (Richardson m = 8)"},
       {"split6-rev", "splitting chin-triple-jump (order 6), reversible control"},
+      {"split6-rev-unheld", "the same, hold_invariants = false"},
       {"s6-rev", "Simo-k Kahan-Li-9 (order 6), reversible control"},
   };
   return all;
@@ -181,7 +182,7 @@ int main(int argc, char** argv) {
       for (const auto& t : split(argv[++i])) rtols.push_back(std::strtod(t.c_str(), nullptr));
     } else {
       std::fprintf(stderr, "usage: %s [--long] [--config NAME,...] [--rtol R,...] [--max-step H]\nconfigurations:\n", argv[0]);
-      for (const auto& cf : configs()) std::fprintf(stderr, "  %-11s %s\n", cf.name.c_str(), cf.what.c_str());
+      for (const auto& cf : configs()) std::fprintf(stderr, "  %-17s %s\n", cf.name.c_str(), cf.what.c_str());
       return 2;
     }
   }
@@ -204,12 +205,12 @@ int main(int argc, char** argv) {
               static_cast<double>(static_cast<long double>(top.tilt_turning_time(j0 + 20000)) - 10000.0L * T));
   std::printf("%s: %s\n", long_run ? "10^4 maxima, t_end = 9999.75 T" : "200 extrema, t_end = 100.25 T",
               long_run ? "error over all maxima" : "error over maxima / minima / up to t = 50");
-  std::printf("%-11s %7s %13s %10s %10s %10s %10s %9s %9s %9s %9s\n", "config", "rtol", "found/want", "err max",
+  std::printf("%-17s %7s %13s %10s %10s %10s %10s %9s %9s %9s %9s\n", "config", "rtol", "found/want", "err max",
               "err min", "err t<=50", "steps", "CPU s", "dH/H", "dmu/mu", "dOm3/Om3");
   for (const auto& n : names)
     for (const double rt : rtols) {
       const Row r = run_config(n, rt, max_step, c, T, long_run);
-      std::printf("%-11s %7.0e %6zu/%-6zu %10.2e %10.2e %10.2e %10lld %9.2f %9.1e %9.1e %9.1e%s\n", r.config.c_str(),
+      std::printf("%-17s %7.0e %6zu/%-6zu %10.2e %10.2e %10.2e %10lld %9.2f %9.1e %9.1e %9.1e%s\n", r.config.c_str(),
                   r.rtol, r.found_max + r.found_min, r.want_max + r.want_min, r.err_max, r.err_min, r.err_early, r.steps,
                   r.cpu, r.dH, r.dmu, r.dOm3, r.ok ? "" : "  (run failed)");
       std::fflush(stdout);

@@ -34,7 +34,7 @@ from ._trompo import usage as _usage
 from ._trompo import __version__
 from .scene import (BodyTorque, Damping, Gravity, GravityGradient, RigidBody, Rotor, Scene, SpaceTorque, State,
                     TorqueLaw, initial_state)
-from .scene import _array, _finite, _rotation_matrix, _text, state_of_y
+from .scene import _array, _finite, _inertia, _rotation_matrix, _text, state_of_y
 
 __all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__",
            "RigidBody", "Gravity", "Damping", "BodyTorque", "SpaceTorque", "Rotor", "GravityGradient", "TorqueLaw",
@@ -537,21 +537,7 @@ class Spacecraft:
     torque); ``max_dipole`` the magnetorquers' limit per axis (A m^2, needs an orbit)."""
 
     def __init__(self, inertia, wheels=(), orbit=None, max_dipole=math.inf):
-        try:
-            J = np.array(inertia, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"inertia: expected 3 principal moments or a 3x3 array, got {inertia!r}") from None
-        if J.shape == (3,):
-            J = np.diag(J)
-        if J.shape != (3, 3):
-            raise ValueError(f"inertia: expected 3 principal moments or a 3x3 array, got shape {J.shape}")
-        if not np.all(np.isfinite(J)):
-            raise ValueError(f"inertia: must be finite, got {J.tolist()}")
-        if not np.array_equal(J, J.T):
-            raise ValueError(f"inertia: not symmetric: {J.tolist()}")
-        if not np.all(np.linalg.eigvalsh(J) > 0):
-            raise ValueError(f"inertia: not positive definite: {J.tolist()}")
-        self.inertia = J
+        self.inertia = _inertia("inertia", inertia)
         self.wheels = tuple(wheels)
         for i, w in enumerate(self.wheels):
             if not isinstance(w, Wheel):

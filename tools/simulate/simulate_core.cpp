@@ -1156,12 +1156,13 @@ void write_ensemble(std::FILE* out, const EnsembleRun& e) {
     const auto& s = e.states[i];
     const M3 R = s.rotation.matrix();
     const V3& pi = e.spatial_momentum[i];
-    std::fprintf(out, "%zu,%.17g", i, s.time);
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) std::fprintf(out, ",%.17g", R(r, k));
-    std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%s\n", s.omega.x(), s.omega.y(),
-                 s.omega.z(), e.energy[i], e.momentum_map[i], pi.x(), pi.y(), pi.z(),
-                 e.iterations(i), e.reason(i).c_str());
+    char line[640];
+    char* p = std::to_chars(line, line + 24, i).ptr;
+    *p++ = ',';
+    p = put_state_columns(p, s.time, R, s.omega, e.energy[i], e.momentum_map[i], pi, e.iterations(i));
+    *p++ = ',';
+    std::fwrite(line, 1, static_cast<std::size_t>(p - line), out);
+    std::fprintf(out, "%s\n", e.reason(i).c_str());
   }
 }
 

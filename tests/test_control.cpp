@@ -339,14 +339,26 @@ TEST_CASE("sampled: a failed step keeps state, wheels and controller memory", "[
   CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() == 0.0);
 }
 
+// The spacecraft of the adaptive-hold cases: four wheels on a diag(900, 800, 600) body,
+// Simo-kappa composed to order 4; start() gives Omega0 = (0.05, -0.1, 0.2) at t = 0 and
+// starts the wheels' hold there.
+struct AdaptiveHoldCase {
+  using Sc = Scene<double, Wheels>;
+  Wheels rw = four_wheels();
+  ComposedStepper<SimoKappa, Sc> stepper{SimoKappa{}, Sc(rw.hub_body(Vec3(900, 800, 600).asDiagonal()), rw), 4};
+  State<double> start() {
+    State<double> s;
+    s.omega = Vec3(0.05, -0.1, 0.2);
+    stepper.scene().effect<Wheels>().start(0, s.omega);
+    return s;
+  }
+};
+
 // Adaptive steps between samples land on every sample; π stays exact.
 TEST_CASE("sampled: adaptive steps between the samples", "[control]") {
-  Wheels rw = four_wheels();
-  using Sc = Scene<double, Wheels>;
-  ComposedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(900, 800, 600).asDiagonal()), rw), 4);
-  State<double> s;
-  s.omega = Vec3(0.05, -0.1, 0.2);
-  stepper.scene().effect<Wheels>().start(0, s.omega);
+  AdaptiveHoldCase run;
+  auto& stepper = run.stepper;
+  State<double> s = run.start();
   const Vec3 pi0 = stepper.scene().spatial_momentum(s);
   std::vector<double> sample_times;
   auto ctrl = [&](const Sample<double>& x) {
@@ -364,23 +376,18 @@ TEST_CASE("sampled: adaptive steps between the samples", "[control]") {
   CHECK(sample_times.size() == 20);
   CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() / pi0.norm() <= 1e-14);
   // The same run at fixed small steps agrees to the tolerance's scale.
-  ComposedStepper<SimoKappa, Sc> fixed(SimoKappa{}, Sc(rw.hub_body(Vec3(900, 800, 600).asDiagonal()), rw), 4);
-  State<double> f;
-  f.omega = Vec3(0.05, -0.1, 0.2);
-  fixed.scene().effect<Wheels>().start(0, f.omega);
-  REQUIRE(integrate_sampled(fixed, f, 10.0, 0.5, ctrl, FixedSteps<double>{0.01}).ok());
+  AdaptiveHoldCase fixed;
+  State<double> f = fixed.start();
+  REQUIRE(integrate_sampled(fixed.stepper, f, 10.0, 0.5, ctrl, FixedSteps<double>{0.01}).ok());
   CHECK((f.rotation.matrix() - s.rotation.matrix()).norm() <= 1e-8);
 }
 
 // An adaptive hold stopped by max_steps (its run failed with no step failure) stops the sampled
 // run and says so: found by the fuzzer, which saw ok() at t = 1e-6 of t_end = 8.1.
 TEST_CASE("sampled: an adaptive hold stopped by max_steps is not ok (Too many steps., time short of t_end)", "[control]") {
-  Wheels rw = four_wheels();
-  using Sc = Scene<double, Wheels>;
-  ComposedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(900, 800, 600).asDiagonal()), rw), 4);
-  State<double> s;
-  s.omega = Vec3(0.05, -0.1, 0.2);
-  stepper.scene().effect<Wheels>().start(0, s.omega);
+  AdaptiveHoldCase run;
+  auto& stepper = run.stepper;
+  State<double> s = run.start();
   int calls = 0;
   auto ctrl = [&](const Sample<double>&) {
     ++calls;
@@ -403,9 +410,7 @@ TEST_CASE("sampled: an adaptive hold stopped by max_steps is not ok (Too many st
   CHECK(sum.time == s.time);
   CHECK(calls == 1);
   // The same run with room for its steps reaches t_end.
-  State<double> r;
-  r.omega = Vec3(0.05, -0.1, 0.2);
-  stepper.scene().effect<Wheels>().start(0, r.omega);
+  State<double> r = run.start();
   opt.max_steps = 10000;
   const auto whole = integrate_sampled(stepper, r, 10.0, 0.5, ctrl, AdaptiveSteps<double>{opt});
   CHECK(whole.ok());

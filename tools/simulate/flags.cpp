@@ -349,8 +349,8 @@ void CommandLine::declare(Config& c) {
         "axial inertia, initial speed relative to the body in rad/s, limits in N m and rad/s, 'inf'\n"
         "for none); --inertia is then the whole spacecraft's; adds columns wheel1..N (speeds) and\n"
         "u1..N (motor torques held from the row on). A control run takes fixed steps of --dt between\n"
-        "the samples, with a scheme that carries wheels: simo-kappa, simo-collocation, simo-alpha,\n"
-        "rk4 and their compositions",
+        "the samples (or adaptive steps over each hold with --rtol), with a scheme that carries\n"
+        "wheels: simo-kappa, simo-collocation, simo-alpha, rk4 and their compositions, the splitting",
         [&k](const std::string& v) {
           k.wheels_file = v;
           k.wheels = read_wheels(v);

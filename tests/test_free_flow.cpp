@@ -23,6 +23,9 @@
 #include "trompo/lie/euler_poinsot.hpp"
 
 #ifdef TROMPO_HAVE_BOOST
+#include <boost/math/special_functions/ellint_1.hpp>
+#include <boost/math/special_functions/ellint_2.hpp>
+#include <boost/math/special_functions/ellint_3.hpp>
 #include <boost/math/special_functions/jacobi_elliptic.hpp>
 
 #include "trompo/exact/free_body.hpp"
@@ -126,6 +129,40 @@ double rotation_distance(const Quat<ld>& a, const Quat<ld>& b) {
 }  // namespace
 
 #ifdef TROMPO_HAVE_BOOST
+// [F9] Bulirsch's cel against Boost.Math's K, E and Π in long double:
+//   cel(k', p, A, B) = A K + (B − A p)(Π(n) − K)/n, n = 1 − p ≠ 0;  at p = 1: A K + (B − A)(K − E)/m
+// ((K − E)/m = π/4 at m = 0). Boost takes k, not k': below k' ≈ 1e-3 its m = 1 − k'² loses the
+// digits of k', so there K from the Landen ladder (built from k'² itself) is the reference.
+TEST_CASE("free flow: Bulirsch's complete integral cel against Boost.Math (long double)", "[free_flow][jacobi]") {
+  double worst = 0;
+  for (const ld kc : {1.0L, 0.5L, 0.1L, 7.07e-3L, 1e-3L}) {
+    const ld m = 1 - kc * kc, k = std::sqrt(m);
+    const ld K = boost::math::ellint_1(k), E = boost::math::ellint_2(k);
+    for (const ld p : {0.2L, 1.0L, 1.5L, 3.0L, 50.0L, 1e4L}) {
+      for (const auto& [A, B] : {std::pair<ld, ld>{1, 1}, {1, kc * kc}, {0.3L, -2}}) {
+        ld ref;
+        if (p == 1) ref = A * K + (B - A) * (m > 0 ? (K - E) / m : ld(0.785398163397448309615660845819875721L));
+        else ref = A * K + (B - A * p) * (boost::math::ellint_3(k, 1 - p) - K) / (1 - p);
+        const double got = trompo::complete_elliptic_cel(double(kc), double(p), double(A), double(B));
+        const double e = double(std::fabs(ld(got) - ref) / std::max(std::fabs(ref), ld(K)));
+        INFO("k' " << double(kc) << ", p " << double(p) << ", A " << double(A) << ", B " << double(B) << ": " << e);
+        CHECK(e <= 4e-15);  // measured ≤ 1.9e-15; the reference's m = 1 − k'² alone is 3e-15 off in K at k' = 1e-3
+        worst = std::max(worst, e);
+      }
+    }
+  }
+  double worst_K = 0;
+  for (const double kc : {1e-3, 1e-5, 1e-8, 1e-12, 1e-16}) {
+    const double K = JacobiModulus<double>(1 - kc * kc, kc * kc).quarter_period();
+    const double e = std::fabs(trompo::complete_elliptic_cel(kc, 1.0, 1.0, 1.0) - K) / K;
+    INFO("k' " << kc << ": K " << K << ", relative difference " << e);
+    CHECK(e <= 4e-15);  // measured ≤ 3.0e-15: each a few ε (the ladder's product of up to 6 levels)
+    worst_K = std::max(worst_K, e);
+  }
+  std::printf("cel vs Boost (long double): largest error %.2e relative to max(|cel|, K); K(k' down to 1e-16) vs the Landen ladder %.2e\n",
+              worst, worst_K);
+}
+
 TEST_CASE("free flow: sn, cn, dn and 1 − cn, 1 − dn against Boost.Math (long double)", "[free_flow][jacobi]") {
   double worst_small = 0, worst_comp = 0, worst_large = 0;
   for (ld mc : {1.0L, 0.9L, 0.5L, 0.1L, 1e-3L, 1e-6L, 1e-9L, 1e-12L, 1e-15L, 1e-18L, 0.0L}) {
@@ -443,37 +480,46 @@ TEST_CASE("free flow: pi and H of the free body to round-off over 10^6 steps", "
   CHECK(dH <= 1e-12);
 }
 
-// [F9] A step longer than the period P of Π takes its whole periods out as one rotation about
-// π by n·ψ_P (ψ_P by the trapezoidal rule over a period), then integrates the remainder: it
-// must agree with the same span in steps shorter than a period, and cost one period's panels.
-TEST_CASE("free flow: a step of any length takes out its whole periods", "[free_flow]") {
+// [F9] A long step takes out the half periods of Π nearest to it in closed form (a turn about
+// π by n·ψ_P/2, Π reflected when n is odd; ψ_P by Bulirsch's complete integral), then
+// integrates the remainder: it must agree with the same span in long-double steps of an eighth
+// of a period (which never take the reduction: |λh| = K/2 < 2π), to the period's rounding
+// times the periods. (A chain of double steps is no reference: it drifts by 2.4e-9 over
+// 40.6 periods of FB1, where the one step is within 8e-13.)
+TEST_CASE("free flow: a step of any length takes out its half periods", "[free_flow]") {
   struct Case {
     const char* name;
     V3<double> J, W0;
     double tol;
   };
   // FB1 next to the separatrix (k'² = 5e-5), FB2, and a body far from it.
-  const Case cases[] = {{"FB1", V3<double>(1, 2, 3), V3<double>(0.01, 2, 0.01), 2e-11},
-                        {"FB2", V3<double>(2, 1, 2.0 / 3), V3<double>(0, 0.1, 0.9), 1e-12},
-                        {"far", V3<double>(1, 2, 3), V3<double>(0.3, 0.2, 1.5), 1e-12}};
+  const Case cases[] = {{"FB1", V3<double>(1, 2, 3), V3<double>(0.01, 2, 0.01), 1e-13},
+                        {"FB2", V3<double>(2, 1, 2.0 / 3), V3<double>(0, 0.1, 0.9), 1e-14},
+                        {"far", V3<double>(1, 2, 3), V3<double>(0.3, 0.2, 1.5), 1e-14}};
+  double worst = 0;
   for (const Case& c : cases) {
     const EulerPoinsot<double> flow(c.J);
+    const EulerPoinsot<ld> flow_ld(c.J.cast<ld>());
     const V3<double> P0 = c.J.cwiseProduct(c.W0);
     const double period = flow.period(P0);
     REQUIRE(std::isfinite(period));
-    for (const double periods : {1.0, 3.37, -3.37, 40.6}) {
+    for (const double periods : {0.5, 1.0, 1.5, 3.37, -3.37, 2.9, 40.6, -40.6}) {  // n even and odd, r of both signs
       const double h = periods * period;
-      Quat<double> q = Quat<double>::Identity(), q_ref = q;
-      V3<double> P = P0, P_ref = P0;
+      Quat<double> q = Quat<double>::Identity();
+      Quat<ld> q_ref = Quat<ld>::Identity();
+      V3<double> P = P0;
+      V3<ld> P_ref = P0.cast<ld>();
       flow.advance(q, P, h);
-      const int n = int(std::ceil(std::abs(periods) * 8));  // steps of under a period
-      for (int i = 0; i < n; ++i) flow.advance(q_ref, P_ref, h / n);
-      const double eL = rotation_distance(q.cast<ld>(), q_ref.cast<ld>()), eP = (P - P_ref).norm() / P0.norm();
+      const int n = int(std::ceil(std::abs(periods) * 8));  // steps of an eighth of a period
+      for (int i = 0; i < n; ++i) flow_ld.advance(q_ref, P_ref, ld(h) / n);
+      const double eL = rotation_distance(q.cast<ld>(), q_ref), eP = double((P.cast<ld>() - P_ref).norm()) / P0.norm();
+      worst = std::max(worst, eL / std::max(1.0, std::abs(periods)));
       INFO(c.name << ": h = " << periods << " periods; ‖ΔΛ‖ " << eL << ", ‖ΔΠ‖/‖Π‖ " << eP);
       CHECK(eL <= c.tol * std::max(1.0, std::abs(periods)));
       CHECK(eP <= c.tol * std::max(1.0, std::abs(periods)));
     }
   }
+  std::printf("steps of 0.5 to 40.6 periods against long-double chains: ‖ΔΛ‖ up to %.2e a period\n", worst);
 #ifdef TROMPO_HAVE_BOOST
   // FB1 over h = 10⁶ (45,000 periods; refused before the reduction: it needed 6·10⁵ panels)
   // against exact::FreeBody, which reduces t by its own ψ_T (found by Gauss–Legendre panels).
@@ -487,8 +533,14 @@ TEST_CASE("free flow: a step of any length takes out its whole periods", "[free_
   const double eL = (q.toRotationMatrix() - ref.rotation(1e6)).norm();
   const double eW = (P.cwiseQuotient(J) - ref.omega(1e6)).norm() / W0.norm();
   std::printf("FB1, one step of h = 1e6 against exact::FreeBody: ‖ΔΛ‖ %.2e, ‖ΔΩ‖/‖Ω‖ %.2e\n", eL, eW);
-  CHECK(eL <= 1e-9);  // measured 8.9e-11: the two ψ_P differ by ~2e-15 a period
+  CHECK(eL <= 1e-9);  // measured 2.8e-10 (FreeBody's ψ_T is a flow call over a period, [F9] too)
   CHECK(eW <= 1e-9);
+  // Against the independent closed form (Jacobi functions, Carlson's R_J), itself ~4e-10
+  // from a long-double flow at t = 1e6 (the period's rounding, times 45,000 periods).
+  const trompo::exact::FreeBodyClosedForm closed(J, Eigen::Matrix3d::Identity(), W0);
+  const double eC = (q.toRotationMatrix() - closed.rotation(1e6)).norm();
+  std::printf("FB1, one step of h = 1e6 against exact::FreeBodyClosedForm: ‖ΔΛ‖ %.2e\n", eC);
+  CHECK(eC <= 2e-9);
 #endif
 }
 

@@ -262,8 +262,9 @@ class FreeBodyClosedForm {
 /// evaluated by the exact Euler–Poinsot flow (lie/euler_poinsot.hpp, docs/theory.md §14):
 /// Λ(t), Ω(t) is one call of the flow from the initial state over the remainder of t modulo
 /// the period of Π, turned about π by the precession of the whole periods (found once, at
-/// construction, by one call over a period). An evaluation costs one call over less than a
-/// period: ≤ 4K/0.5 quadrature panels (FB1: ≤ 51), whatever t. A spin about a principal axis
+/// construction, by one call over a period: the flow's closed form [F9]). An evaluation costs
+/// one call over less than a period, which the flow itself reduces by its half periods to at
+/// most a quarter period: ≤ K/0.5 quadrature panels (FB1: ≤ 13), whatever t. A spin about a principal axis
 /// is the closed form exp(tΩ̂0); on the separatrix itself (no period) the flow runs over t up to
 /// |λt| = 80, where Π has reached the middle axis, and the steady spin about it from there.
 /// Throws trompo::invalid_input (naming the field and the value) on J ≤ 0, non-finite input

@@ -15,8 +15,10 @@
 // precession angle ψ, integrated by 3-, 5- or 7-point Gauss–Legendre (by the panel's span and k²)
 // on panels |λ|h_p ≤ ½ [F6]; after
 // each panel of a multi-panel call the phase is projected back onto sn² + cn² = 1,
-// dn² = m' + m cn² (chained additions are unstable next to the separatrix). A step longer
-// than the period of Π first takes out its whole periods as one rotation about π [F9]. The quaternion
+// dn² = m' + m cn² (chained additions are unstable next to the separatrix). A long step
+// first takes out the half periods of Π nearest to it in closed form (a turn about π by the
+// precession of a half period, Bulirsch's complete integral) and integrates the remainder,
+// at most a quarter period [F9]. The quaternion
 // is a product of unit factors, kept unit by a Newton step at the end (q must come in unit).
 //
 // Branches [F7]: two equal moments (|ΔJ| ≤ 8ε·max J) take the exact symmetric flow [S2];
@@ -125,7 +127,7 @@ class EulerPoinsot {
 
   /// Largest |λ|·h of one quadrature panel [F6] (7 points hold round-off up to here).
   static constexpr Scalar panel_max = Scalar(0.5);
-  /// Most panels one step may take after its whole periods are taken out [F9] (|λ|h ≤ 2¹⁵);
+  /// Most panels one step may take after its half periods are taken out [F9] (|λ|h ≤ 2¹⁵);
   /// only a step next to the separatrix, whose period exceeds that, can need more, and is
   /// refused as failed.
   static constexpr Scalar max_panels = Scalar(65536);
@@ -362,7 +364,7 @@ class EulerPoinsot {
     using std::abs;
     using std::ceil;
     using std::sqrt;
-    const Phase ph = phase(Pi);
+    Phase ph = phase(Pi);
     if (!(ph.G > Scalar(0))) {
       if (!std::isfinite(ph.G) || !std::isfinite(h)) Pi.setConstant(std::numeric_limits<Scalar>::quiet_NaN());
       return;  // at rest: nothing moves
@@ -372,11 +374,11 @@ class EulerPoinsot {
       return;
     }
     const Slots& C = slots_[ph.cfg];
-    // [F9] A step longer than the period P = 4K/|λ| of Π (|λh| ≥ 4K ≥ 2π): Π returns after
-    // each whole period and Λ turns about π by ψ_P, so the n whole periods are the rotation
-    // q ← q ⊗ r(n0, n·ψ_P) and only the remainder is integrated: a step costs at most one
-    // period's panels whatever h.
-    if (abs(ph.lambda * h) >= Scalar(6.283185307179586476925286766559L)) whole_periods(ph, Pi, q, h);
+    // [F9] A long step (|λh| ≥ 2π): after each half period P/2 = 2K/|λ| of Π, Π comes back
+    // reflected and Λ has turned about π by ψ_P/2, so the n half periods nearest to h are
+    // one turn in closed form and only the remainder, |r| ≤ P/4, is integrated: a step
+    // costs at most a quarter period's panels whatever h.
+    if (abs(ph.lambda * h) >= Scalar(6.283185307179586476925286766559L)) half_periods(ph, Pi, q, h);
     // panels with |λ| h_p ≤ ½ [F6]
     const Scalar span = abs(ph.lambda * h) / panel_max;
     if (span > max_panels) {
@@ -409,10 +411,16 @@ class EulerPoinsot {
 
     const Vector3 n0 = Pi * ph.iG;
     Pi(C.p[0]) = Q1, Pi(C.p[1]) = Q2, Pi(C.p[2]) = C.sg3 * Q3;
-    const Vector3 n1 = Pi * ph.iG;
-    // q ← q ⊗ r(n0, Δψ) ⊗ a(n0)* ⊗ a(n1), a(n) = (1 + n·e, n × e) (unnormalised) the minimal
-    // rotation of n onto e = σ e_{slot 1}; 1 + n·e ≥ 1 since σ = sgn Π₁.
-    const int ax = C.p[0];
+    turn(ph, n0, Pi * ph.iG, dpsi, q);
+  }
+
+  // [F6] q ← q ⊗ r(n0, Δψ) ⊗ a(n0)* ⊗ a(n1): the body turned by Δψ about the momentum
+  // direction n0 = Π₀/G, then carried from n0 to n1 = Π₁/G through the frame in which π is
+  // fixed; a(n) = (1 + n·e, n × e) (unnormalised) is the minimal rotation of n onto e = σ e_{slot 1},
+  // 1 + n·e ≥ 1 since σ = sgn Π₁.
+  void turn(const Phase& ph, const Vector3& n0, const Vector3& n1, Scalar dpsi, Quaternion& q) const {
+    using std::sqrt;
+    const int ax = slots_[ph.cfg].p[0];
     auto n_cross_e = [&](const Vector3& n) {  // σ n × e_ax
       const Vector3 r = ax == 0 ? Vector3(0, n.z(), -n.y()) : ax == 1 ? Vector3(-n.z(), 0, n.x()) : Vector3(n.y(), -n.x(), 0);
       return Vector3(ph.sigma * r);
@@ -430,63 +438,51 @@ class EulerPoinsot {
     q = q * (r * pa);
   }
 
-  // [F9] Takes the whole periods out of h: q turned by n·ψ_P about n0 = Π/G, h left with
-  // the remainder (|h| < P, same sign). Nothing on the separatrix (no period).
-  void whole_periods(const Phase& ph, const Vector3& Pi, Quaternion& q, Scalar& h) const {
+  // [F9] Takes the half periods nearest to h out of it: after n half periods of Π (u advanced
+  // by 2nK), dn returns and sn, cn change sign n times, so Π is Π₀ reflected in slots 2 and 3
+  // when n is odd, and Λ has turned by n·ψ_P/2 about n0 = Π₀/G ([F6] over whole windows of
+  // dn). h is left with the remainder r = h − n·P/2, |r| ≤ P/4 (either sign: the flow runs
+  // backward as well as forward), and the phase is moved with Π. Nothing on the separatrix.
+  void half_periods(Phase& ph, Vector3& Pi, Quaternion& q, Scalar& h) const {
     using std::abs;
     using std::floor;
+    using std::sqrt;
     const JacobiModulus<Scalar> ladder(ph.m, ph.mc);
     const Scalar K = ladder.quarter_period();
     if (!std::isfinite(K)) return;
     const Scalar rate = abs(ph.lambda);
-    const Scalar P = Scalar(4) * K / rate;
-    const Scalar n = floor(abs(h) / P);
+    const Scalar half_P = Scalar(2) * K / rate;
+    const Scalar n = floor(abs(h) / half_P + Scalar(0.5));
     if (n < Scalar(1)) return;
     const Scalar sign = h > Scalar(0) ? Scalar(1) : Scalar(-1);
-    // ψ_P = P·2T/G + κ ∫_P p/(G + p) dt [F6] over a whole period. The integrand, dn/(G/B1 + dn),
-    // is periodic in u with period 2K and analytic on the real axis, so the trapezoidal rule
-    // converges geometrically; by dn(2K − u) = dn(u) its nodes on [0, 2K] fold onto [0, K]:
-    //   ∫_0^{2K} f du ≈ (K/M)·(f(0) + f(K) + 2 Σ_{j=1}^{M−1} f(jK/M)),
-    // the nodes reached by the addition theorem [F5]: M = 8 by a chain of steps K/8 from
-    // u = 0, then each doubling adds the M new nodes (odd multiples of K/2M) by a chain of
-    // steps K/M from K/2M; until two sums agree to 64ε (the chains' round-off is ~Mε, and the
-    // geometric convergence puts the last sum far below the difference). The chains are not
-    // projected back onto sn² + cn² = 1 as the panels are: at most 2·32 additions each.
-    const Scalar Gb = ph.G / ph.B1;
-    const auto f = [Gb](Scalar dn) { return dn / (Gb + dn); };
-    const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar ends = f(Scalar(1)) + f(std::sqrt(ph.mc));  // dn(0) = 1, dn(K) = k′
-    // Σ f(dn) over the `count` nodes start + i·step, i = 0 … count − 1, (sn, cn, dn)(start) = s0.
-    const auto chain = [&](JacobiValues<Scalar> s0, const JacobiValues<Scalar>& step, int count) {
-      Scalar sn = s0.sn, cn = s0.cn, dn = s0.dn, sum = f(dn);
-      for (int i = 1; i < count; ++i) {
-        Scalar ds, dc, dd;
-        add_increment(ph.m, sn, cn, dn, step, ds, dc, dd);
-        sn += ds, cn += dc, dn += dd;
-        sum += f(dn);
-      }
-      return sum;
-    };
-    int M = 8;
-    JacobiValues<Scalar> step = jacobi_sncndn(ladder, K / Scalar(M));
-    Scalar inner = chain(step, step, M - 1);  // nodes K/8 … 7K/8
-    Scalar I = (K / Scalar(M)) * (ends + Scalar(2) * inner);
-    for (int doubling = 0; doubling < 6; ++doubling) {
-      const JacobiValues<Scalar> half = jacobi_sncndn(ladder, K / Scalar(2 * M));
-      inner += chain(half, step, M);  // nodes K/2M, 3K/2M, …, (2M − 1)K/2M
-      step = half;
-      M *= 2;
-      const Scalar next = (K / Scalar(M)) * (ends + Scalar(2) * inner);
-      const bool converged = abs(next - I) <= Scalar(64) * eps * abs(next);
-      I = next;
-      if (converged) break;
+    // ψ_P/2 = (P/2)·2T/G + κ (1/|λ|) ∫_0^{2K} f du,  f = dn/(a + dn),  a = G/B1 ≥ 1 [F6].
+    // With φ = am u (dn du = dφ), 1/(a + dn) = (a − dn)/(α + m sin²φ), α = a² − 1, and
+    // α + m sin²φ = α (cos²φ + p sin²φ), p = 1 + m/α:
+    //   ∫_0^{2K} f du = 2∫_0^{π/2} dφ/(a + dn) = 2[(π/2) a/√p − cel(k′, p, 1, k′²)] / α,
+    // Bulirsch's cel (jacobi.hpp). In the slots α = (I3/I1)|Δ1|/|Δ3| and m/α = |k_m| I1/I3:
+    // p is the body's, and κ/α = sgn(Δ1)|Δ3|/(G I3), so nothing is divided by α (0 on a pure
+    // spin about slot 1, where κ = 0 too). The bracket's two terms are O(1); their difference
+    // vanishes with α as κ does, and its round-off is ε of the O(1) terms.
+    const Slots& C = slots_[ph.cfg];
+    const Scalar D3 = ph.B1 * ph.B1 * C.irb1 * C.irb1;  // |Δ3| = B1²/rb1²
+    const Scalar p = Scalar(1) + abs(C.km) * C.iI3 / C.iI1;
+    const Scalar bracket = Scalar(1.57079632679489661923132169163975144L) * (ph.G / ph.B1) / sqrt(p) -
+                           complete_elliptic_cel(sqrt(ph.mc), p, Scalar(1), ph.mc);
+    const Scalar kappa_over_alpha = (ph.D1 >= Scalar(0) ? D3 : -D3) * ph.iG * C.iI3;
+    const Scalar psi_half = half_P * ph.T2 * ph.iG + kappa_over_alpha * (Scalar(2) / rate) * bracket;
+    const Vector3 n0 = Pi * ph.iG;
+    const Scalar dpsi = sign * n * psi_half;
+    if (floor(n / Scalar(2)) * Scalar(2) == n) {
+      // even: Π is back; q ← q ⊗ r(n0, Δψ)
+      const Scalar sp = std::sin(Scalar(0.5) * dpsi), cp = std::cos(Scalar(0.5) * dpsi);
+      q = q * Quaternion(cp, sp * n0.x(), sp * n0.y(), sp * n0.z());
+    } else {
+      // odd: Π reflected in slots 2, 3 (sn, cn of the phase negated), q carried by [F6]
+      Pi(C.p[1]) = -Pi(C.p[1]), Pi(C.p[2]) = -Pi(C.p[2]);
+      ph.P2 = -ph.P2, ph.P3 = -ph.P3, ph.s = -ph.s, ph.c = -ph.c;
+      turn(ph, n0, Pi * ph.iG, dpsi, q);
     }
-    const Scalar psi_P = P * ph.T2 * ph.iG + (ph.D1 * ph.iG * slots_[ph.cfg].iI1) * (Scalar(2) / rate) * I;
-    const Scalar half = Scalar(0.5) * sign * n * psi_P;
-    const Vector3 axis = Pi * ph.iG;  // n0, body axes
-    const Scalar sp = std::sin(half), cp = std::cos(half);
-    q = q * Quaternion(cp, sp * axis.x(), sp * axis.y(), sp * axis.z());
-    h -= sign * n * P;
+    h -= sign * n * half_P;
   }
 
   // [S2] the symmetric free flow about axis s (detail::symmetric_free_flow).

@@ -73,6 +73,38 @@ struct JacobiModulus {
   }
 };
 
+/// Bulirsch's complete elliptic integral of the general kind, for p > 0 and 0 < k' ≤ 1
+/// (docs/theory.md [F9]):
+///   cel(k', p, A, B) = ∫_0^{π/2} (A cos²φ + B sin²φ) / ((cos²φ + p sin²φ) √(cos²φ + k'² sin²φ)) dφ.
+/// K(m) = cel(k', 1, 1, 1) and Π(n | m) = cel(k', 1 − n, 1, 1). Bulirsch's algorithm (Numer.
+/// Math. 13, 1969): an arithmetic–geometric mean on (1, k') carrying A, B and p, converging
+/// quadratically; each pass one square root and two divisions. It stops once the two means
+/// agree to √ε relative: the next pass squares that error, below ε.
+template <class Scalar>
+Scalar complete_elliptic_cel(Scalar kc, Scalar p, Scalar A, Scalar B) {
+  using std::abs;
+  using std::sqrt;
+  const Scalar tol = sqrt(std::numeric_limits<Scalar>::epsilon());
+  Scalar qc = abs(kc), a = A, e = qc, em = Scalar(1);
+  p = sqrt(p);
+  Scalar b = B / p;
+  for (int pass = 0; pass < 64; ++pass) {
+    const Scalar f = a;
+    a += b / p;
+    const Scalar g = e / p;
+    b += f * g;
+    b += b;
+    p += g;
+    const Scalar mean = em;
+    em += qc;
+    if (abs(mean - qc) <= mean * tol) break;
+    qc = sqrt(e);
+    qc += qc;
+    e = qc * em;
+  }
+  return Scalar(1.57079632679489661923132169163975144L) * (b + a * em) / (em * (em + p));
+}
+
 /// sn, cn, dn at one argument, with 1 − cn and 1 − dn to relative accuracy.
 template <class Scalar>
 struct JacobiValues {

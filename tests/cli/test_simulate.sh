@@ -75,6 +75,11 @@ check "--compensated: H and mu at t = 10 within 4e-15 ($(dH "$tmp/compensated.cs
   'awk -v d="$(dH "$tmp/compensated.csv")" "BEGIN{exit !(d <= 4e-15)}"'
 check "plain: 10x further off ($(dH "$tmp/plain.csv"))" \
   'awk -v a="$(dH "$tmp/plain.csv")" -v b="$(dH "$tmp/compensated.csv")" "BEGIN{exit !(a >= 10 * b)}"'
+# The LGVI carries the residue too: pi over 10^6 steps of FB1 within 1e-14 (issue 36's bound).
+"$sim" --case fb1 --scheme lgvi --compensated --dt 0.01 --t-end 10000 --every 1000000 >"$tmp/lgvi.csv"; rc=$?
+dpi() { awk -F, 'NR==2{a=$16; b=$17; c=$18} NR==3{d=sqrt(($16-a)^2+($17-b)^2+($18-c)^2)/sqrt(a*a+b*b+c*c); print d}' "$1"; }
+check "--scheme lgvi --compensated, 10^6 steps of FB1: pi within 1e-14 ($(dpi "$tmp/lgvi.csv"))" \
+  '[ $rc -eq 0 ] && awk -v d="$(dpi "$tmp/lgvi.csv")" "BEGIN{exit !(d <= 1e-14)}"'
 "$sim" --case ht1 --scheme rk4 --compensated >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
 check "--compensated with rk4: exit 2 naming the flag" '[ $rc -eq 2 ] && grep -qF -- "--compensated: only with --scheme simo-kappa" "$tmp/bad.err"'
 

@@ -209,8 +209,8 @@ void CommandLine::declare(Config& c) {
   flag("--energy-projection", "splitting: project H back after each step (keeps pi)",
        [&c] { c.energy_projection = true; });
   flag("--compensated",
-       "simo-kappa, simo-collocation: carry the state's rounding residue, H and mu to a few eps over any "
-       "number of steps (3-16 % a step; docs/theory.md section 18)",
+       "simo-kappa, simo-collocation, lgvi: carry the state's rounding residue, H and mu (the lgvi: pi and mu) "
+       "to a few eps over any number of steps (3-16 % a step; docs/theory.md section 18)",
        [&c] { c.compensated = true; });
   // ---- families (docs/families.md) ----
   value("--rho-inf", "R", "lie-gen-alpha only: spectral radius at infinity in [0, 1] (default 0.8)",
@@ -402,7 +402,7 @@ void CommandLine::declare(Config& c) {
 
 /// The checks across flags, after each flag's own (exit 2 naming the flag).
 void check_flags(Config& c, const Flags& flags) {
-  // --compensated asks for Simo-κ's residue: no pick then (the default scheme stays).
+  // --compensated asks for a residue-carrying scheme: no pick then (the default scheme stays).
   if (c.adaptive.on && !flags.count("--scheme") && !flags.count("--order") && !flags.count("--composition") &&
       !flags.count("--compensated") && !c.control.on() && c.ensemble.empty())  // (both refuse --rtol, below)
     pick_adaptive_method(c, flags.count("--control") || flags.count("--tol-scope") || flags.count("--estimate") ||
@@ -424,8 +424,8 @@ void check_flags(Config& c, const Flags& flags) {
     throw invalid_input("--damping: negative coefficient " + flags.at("--damping") +
                         " feeds energy in; give --allow-negative-damping to run it anyway");
   if (c.alpha && c.scheme != "simo-alpha") throw invalid_input("--alpha: only with --scheme simo-alpha");
-  if (c.compensated && c.scheme != "simo-kappa" && c.scheme != "simo-collocation")
-    throw invalid_input("--compensated: only with --scheme simo-kappa or simo-collocation (the schemes whose "
+  if (c.compensated && c.scheme != "simo-kappa" && c.scheme != "simo-collocation" && c.scheme != "lgvi")
+    throw invalid_input("--compensated: only with --scheme simo-kappa, simo-collocation or lgvi (the schemes whose "
                         "memory carries the state's residue), got " + c.scheme);
   // ---- satellite: its own scene (gravity gradient only) ----
   if (!c.gravity_gradient && (flags.count("--orbit-normal") || flags.count("--radial")))

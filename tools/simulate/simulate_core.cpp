@@ -406,6 +406,11 @@ inline trompo::SimoCollocation make_scheme(std::type_identity<trompo::SimoColloc
   s.compensated = c.compensated;  // --compensated
   return s;
 }
+inline trompo::LGVI make_scheme(std::type_identity<trompo::LGVI>, const Config& c) {
+  trompo::LGVI s;
+  s.compensated = c.compensated;  // --compensated
+  return s;
+}
 inline trompo::SimoAlpha make_scheme(std::type_identity<trompo::SimoAlpha>, const Config& c) {
   return trompo::SimoAlpha(c.alpha.value_or(0.5));  // --alpha
 }

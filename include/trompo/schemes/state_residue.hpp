@@ -8,12 +8,14 @@
 // increment (the Simo schemes: Ω_{n+1} = Ω_n + 2y/h, Λ_{n+1} = Λ_n + Λ_n(exp Θ̂ − I))
 // can add that increment to Ω_n + r_n instead of Ω_n, r_n the residue the last step left,
 // and keep the new residue: the state is then carried to O(ε²), and what is left per step
-// is the increment's own rounding, O(ε·hΩ) [K4].
+// is the increment's own rounding, O(ε·hΩ) [K4]. Simo-κ, collocation and the LGVI carry it
+// (their option `compensated`); their memory is CompensatedMemory.
 #include <Eigen/Core>
 
 #include "trompo/lie/compensated.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/state.hpp"
+#include "trompo/schemes/history.hpp"
 
 namespace trompo {
 
@@ -56,6 +58,13 @@ struct StateResidue {
     next.omega_at = out.omega;
     next.rotation_at = out.rotation.unit_quaternion().coeffs();
   }
+};
+
+/// The per-trajectory memory of Simo-κ, collocation and the LGVI: the history predictor's
+/// increments and tangent (IncrementHistory), and the compensated state's residue.
+template <class Scalar>
+struct CompensatedMemory : IncrementHistory<Scalar> {
+  StateResidue<Scalar> residue;  ///< what rounding left out of the state (compensated steps)
 };
 
 }  // namespace trompo

@@ -518,9 +518,7 @@ class SimoProblem {
 /// The per-trajectory memory of Simo-κ and collocation: the history predictor's
 /// increments and tangent, and the compensated state's residue (docs/theory.md §18).
 template <class Scalar>
-struct SimoMemory : IncrementHistory<Scalar> {
-  StateResidue<Scalar> residue;  ///< what rounding left out of the state (compensated steps)
-};
+using SimoMemory = CompensatedMemory<Scalar>;
 
 /// One step of a Simo scheme: Newton on [T1] from the predictor, then (9)–(10), by the
 /// implicit-step sequence (implicit_step.hpp). With `history` (the scheme's memory, null

@@ -30,8 +30,12 @@
 // t frozen at the mid time as the other implicit schemes do), applied torques, and rotors
 // of constant momentum h_r (the gyrostat): their gyroscopic term Ω·h_r enters L_d as
 // h_r·vee(F − Fᵀ)/2, which adds (h/2)(tr F I − Fᵀ)h_r − h h_r to [V2] and keeps π = ΛΠ,
-// Π = JΩ + h_r, exact. Not wheels (their h_w(t) would need a forced discrete principle; the
-// step is not declared for them, so SchemeFor refuses such a scene).
+// Π = JΩ + h_r, exact. Reaction wheels ([W1]–[W2], docs/theory.md [V13]): the same
+// gyrostat term with the wheels' momentum at the mid time, h_m = h_r + h_w(t_{n+½}) (the
+// Lagrangian ½Ω·J_hubΩ + Ω·h_w(t) of a prescribed h_w(t) gives [W1], ḣ_w included), Π_n =
+// J_hubΩ_n + h_r + h_w(t_n) the total momentum, Π_{n+1} = Fᵀ(Π_n + kick) by [V4] and Ω_{n+1}
+// from Π_{n+1} − h_w(t_{n+1}): π = ΛΠ is kept whatever the motors do (ΛF·FᵀΠ = ΛΠ), the map
+// stays symmetric (h_w read at the step's mid time), order 2.
 #include <Eigen/Core>
 #include <cmath>
 
@@ -41,6 +45,7 @@
 #include "trompo/schemes/history.hpp"
 #include "trompo/schemes/implicit_step.hpp"
 #include "trompo/schemes/scheme.hpp"
+#include "trompo/schemes/state_residue.hpp"
 #include "trompo/schemes/step_data.hpp"
 #include "trompo/solvers/newton.hpp"
 
@@ -60,9 +65,13 @@ class LgviResidual {
   /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
-  /// At the step's data d; `tau_n` the conservative torque at Λ_n (frame n, zero without).
-  LgviResidual(const StepData<Scene>& d, const Vector3& tau_n)
-      : d_(d), rhs_(d.h * (d.scene.body().momentum(d.omega_n) + (d.h / Scalar(2)) * tau_n)), rhs_norm_(rhs_.norm()) {}
+  /// At the step's data d from time t_n; `tau_n` the conservative torque at Λ_n (frame n,
+  /// zero without).
+  LgviResidual(const StepData<Scene>& d, Scalar t_n, const Vector3& tau_n)
+      : d_(d), h_m_(rotor_at_mid(d, t_n)), rhs_(right_side(d, tau_n)), rhs_norm_(rhs_.norm()) {}
+
+  /// Some rotor enters [V2]: a constant one (the gyrostat) or wheels [V13].
+  static constexpr bool has_rotor_term = Scene::has_rotor || Scene::has_wheels;
 
   /// R(Θ) = a JΘ + b Θ × JΘ − h Π_n − (h²/2)(τ_c,n + τ_a,m) [V2]; with K, the tangent [V5].
   bool operator()(const Vector3& Theta, Vector3& R, Matrix3* K, Scalar& scale) const {
@@ -78,11 +87,12 @@ class LgviResidual {
     R = a * JTheta + b * Theta.cross(JTheta) - rhs_;
     scale = rhs_norm_ + JTheta.norm();
     [[maybe_unused]] Vector3 Ft_hr;  // Fᵀh_r
-    if constexpr (Scene::has_rotor) {
+    if constexpr (has_rotor_term) {
       // The rotor's term [V1]/[V2]: (h/2)(tr F I − Fᵀ)h_r − h h_r, i.e. with tr F = 3 − 2bθ²
       // and Fᵀx = x − aΘ×x + bΘ×(Θ×x), (h/2)(aΘ×h_r − b(2θ²h_r + Θ×(Θ×h_r))): small terms
-      // only (the h h_r of hΠ_n is taken out of rhs_ instead of cancelled here).
-      const Vector3 h_r = rotor_momentum(scene);
+      // only (the h h_r of hΠ_n is taken out of rhs_ instead of cancelled here). With wheels
+      // h_r is h_m, their momentum at the mid time [V13].
+      const Vector3& h_r = h_m_;
       const Vector3 c = Theta.cross(h_r);
       R += (h / Scalar(2)) * (a * c - b * (Scalar(2) * Theta.squaredNorm() * h_r + Theta.cross(c)));
       Ft_hr = h_r - a * c + b * Theta.cross(c);
@@ -96,8 +106,8 @@ class LgviResidual {
       const Matrix3 T = G::right_tangent(Theta);
       *K = (FJ_d.trace() * Matrix3::Identity() - FJ_d) * F * T;
       // the rotor's: δ[(tr F I − Fᵀ)h_r] = (−2a h_r Θᵀ − (Fᵀh_r)^) η, η = T(Θ)δΘ  [V5]
-      if constexpr (Scene::has_rotor)
-        *K += (h / Scalar(2)) * (Scalar(-2) * a * rotor_momentum(scene) * Theta.transpose() - G::hat(Ft_hr)) * T;
+      if constexpr (has_rotor_term)
+        *K += (h / Scalar(2)) * (Scalar(-2) * a * h_m_ * Theta.transpose() - G::hat(Ft_hr)) * T;
     }
     if constexpr (Scene::has_applied_torque) {
       // τ_a at Λ_{n+½} = Λ_n exp(Θ̂/2), Ω_m = Θ/h (docs/theory.md §5), half of its impulse
@@ -112,10 +122,20 @@ class LgviResidual {
     return true;
   }
 
-  /// h_r, the scene's rotors' momentum (zero without).
-  static Vector3 rotor_momentum(const Scene& scene) {
-    if constexpr (Scene::has_rotor) return scene.rotor_momentum();
-    else return Vector3::Zero();
+  /// h_m = h_r + h_w(t_{n+½}): the constant rotors' momentum and the wheels' at the step's
+  /// mid time (zero without either) [V13].
+  static Vector3 rotor_at_mid(const StepData<Scene>& d, Scalar t_n) {
+    Vector3 h = Vector3::Zero();
+    if constexpr (Scene::has_rotor) h += d.scene.rotor_momentum();
+    if constexpr (Scene::has_wheels) h += d.scene.wheel_momentum(t_n + d.h / Scalar(2));
+    return h;
+  }
+  /// h JΩ_n + (h²/2) τ_c(Λ_n), and with wheels + h(h_w(t_n) − h_w(t_{n+½})) = −(h/2) Δh_w:
+  /// hΠ_n less the h h_m that the rotor term of [V2] takes out [V13].
+  static Vector3 right_side(const StepData<Scene>& d, const Vector3& tau_n) {
+    Vector3 rhs = d.h * (d.scene.body().momentum(d.omega_n) + (d.h / Scalar(2)) * tau_n);
+    if constexpr (Scene::has_wheels) rhs -= (d.h / Scalar(2)) * d.dh_w;
+    return rhs;
   }
 
   /// τ_a,m: the applied torques at the mid configuration Λ_n exp(Θ̂/2) and Ω_m = Θ/h
@@ -128,7 +148,8 @@ class LgviResidual {
 
  private:
   const StepData<Scene>& d_;
-  Vector3 rhs_;  ///< h JΩ_n + (h²/2) τ_c(Λ_n) (h Π_n less the rotor's h h_r)
+  Vector3 h_m_;  ///< h_r + h_w(t_{n+½}) (zero without rotors or wheels)
+  Vector3 rhs_;  ///< h JΩ_n + (h²/2) τ_c(Λ_n) (h Π_n less the rotor's h h_m)
   Scalar rhs_norm_;
 };
 
@@ -151,9 +172,10 @@ class LgviProblem {
   /// A 3×3 matrix of Scalar.
   using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
 
-  /// At the step's data d from the state `in`.
-  LgviProblem(const StepData<Scene>& d, const State<Scalar>& in)
-      : d_(d), in_(in), tau_n_(start_torque(d)), residual_(d, tau_n_) {}
+  /// At the step's data d from the state `in`; `residue`: the compensated state's residue at
+  /// the start (null: not compensated).
+  LgviProblem(const StepData<Scene>& d, const State<Scalar>& in, const StateResidue<Scalar>* residue = nullptr)
+      : d_(d), in_(in), tau_n_(start_torque(d)), residual_(d, in.time, tau_n_), residue_(residue) {}
 
   /// [V2] and [V5].
   const LgviResidual<Scene>& residual() const { return residual_; }
@@ -188,10 +210,21 @@ class LgviProblem {
     // while Θ is nearly steady (measured after 10⁶ steps on FB1: −2.7e-12 with Fᵀ as a
     // matrix, +3.2e-12 with these small terms but Ω from Π; 3.3e-14 now, Simo-κ's 3.5e-14).
     const Vector3 c1 = Theta.cross(impulse);
-    const Vector3 dPi = kick - a * c1 + b * Theta.cross(c1);
+    Vector3 dPi = kick - a * c1 + b * Theta.cross(c1);
+    // With wheels Π = J_hubΩ + h_r + h_w(t): Ω's change is J_hub⁻¹(ΔΠ − Δh_w) [V13].
+    if constexpr (Scene::has_wheels) dPi -= d_.dh_w;
+    if (residue_) {
+      // Compensated (docs/theory.md §18, [K2]–[K3]): the increments J⁻¹ΔΠ and Θ added to the
+      // state plus the residue the last step left, the new rounding kept in next_residue_.
+      // [V2]–[V4] read Ω_n and Λ_n alone: every term that depends on them is of size hΩ.
+      residue_->advance(in_, inverse_inertia_times(scene.body(), dPi), Theta, ha, h, out, next_residue_);
+      return;
+    }
     out.omega = in_.omega + inverse_inertia_times(scene.body(), dPi);
     out.time = in_.time + h;
   }
+  /// The residue of advance()'s result (compensated steps only).
+  const StateResidue<Scalar>& next_residue() const { return next_residue_; }
   /// The history records Θ.
   Vector3 recorded(const Vector3& Theta) const { return Theta; }
 
@@ -206,6 +239,8 @@ class LgviProblem {
   const State<Scalar>& in_;
   Vector3 tau_n_;                  ///< τ_c(Λ_n), frame n
   LgviResidual<Scene> residual_;  ///< [V2]
+  const StateResidue<Scalar>* residue_;        ///< the start's residue (null: not compensated)
+  mutable StateResidue<Scalar> next_residue_;  ///< the result's, written by advance()
 };
 
 }  // namespace detail
@@ -220,7 +255,7 @@ struct LGVI {
   /// does), π without external torque (the free body, the gyrostat), and H on the free body
   /// (the map is then the DMV's, which keeps both integrals); H is otherwise not exact but
   /// bounded. Its memory, the history predictor's (as Simo-κ's), is only a hint: a plain
-  /// State may be stepped; the step writes it only on success. No wheels.
+  /// State may be stepped; the step writes it only on success. Carries wheels (π kept) [V13].
   static constexpr SchemeTraits traits{
       .order = 2,
       .symmetric = true,
@@ -228,8 +263,9 @@ struct LGVI {
           [](SceneKind s) {
             return Keeps{.energy = s.is_free,
                          .momentum_map = true,
-                         .spatial_momentum = !s.has_potential && !s.has_applied_torque && !s.has_wheels};
+                         .spatial_momentum = !s.has_potential && !s.has_applied_torque};
           },
+      .carries_wheels = true,
       .memory = MemoryUse::hint,
       .writes_memory_on_success = true};
 
@@ -237,22 +273,31 @@ struct LGVI {
   /// tangent (schemes/history.hpp, docs/theory.md §13 [P1]–[P3]). Off: every step is solved
   /// from Θ⁰ = hΩ_n + (h²/2)Ω̇_n. Either way the step's acceptance, hence the map, is the same.
   bool history_predictor = true;
-  /// The last increments and tangent (IncrementHistory), per trajectory.
+  /// Whether a Trajectory's state is compensated (docs/theory.md §18): its rounding residue
+  /// is carried in the memory, so that π (and μ) stay within a few ε of their start over any
+  /// number of steps instead of walking like √N·ε (FB1, 10⁶ steps of h = 0.01: 4.8e-14 → see
+  /// docs/families.md). A plain State stepped alone starts from a zero residue each step.
+  /// Off by default, as for Simo-κ.
+  bool compensated = false;
+  /// The last increments and tangent, and the state's residue (CompensatedMemory), per
+  /// trajectory.
   template <class Scene>
-  using Memory = IncrementHistory<typename Scene::Scalar>;
+  using Memory = CompensatedMemory<typename Scene::Scalar>;
 
   /// One step: Newton on [V2] from the history's extrapolation (or Θ⁰), the branch rule
-  /// [V6], then [V3]–[V4], by the implicit-step sequence of implicit_step.hpp. Not declared
-  /// for scenes with wheels (see the file comment).
+  /// [V6], then [V3]–[V4], by the implicit-step sequence of implicit_step.hpp (wheels by
+  /// [V13]).
   template <class Scene>
-    requires(!Scene::has_wheels)
   StepReport<typename Scene::Scalar> step(const Scene& scene, const State<typename Scene::Scalar>& in,
                                           typename Scene::Scalar h,
                                           const NewtonOptions<typename Scene::Scalar>& options,
                                           State<typename Scene::Scalar>& out, Memory<Scene>& memory) const {
     const detail::StepData<Scene> d(scene, in, h);
-    return detail::implicit_step(detail::LgviProblem<Scene>(d, in), options, h, out,
-                                 history_predictor ? &memory : nullptr);
+    const detail::LgviProblem<Scene> problem(d, in, compensated ? &memory.residue : nullptr);
+    const StepReport<typename Scene::Scalar> rep =
+        detail::implicit_step(problem, options, h, out, history_predictor ? &memory : nullptr);
+    if (rep.ok() && compensated) memory.residue = problem.next_residue();  // written on success only
+    return rep;
   }
 };
 

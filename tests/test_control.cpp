@@ -76,12 +76,12 @@ TEMPLATE_TEST_CASE("wheels: Basilisk's closed-form spin-up", "[control]", SimoKa
 // the energy-momentum schemes (no external torque) [W4], and the energy balance
 // H_{n+1} − H_n = h Σ u_i Ω_i,m exact step by step [W3].
 TEMPLATE_TEST_CASE("wheels: total momentum and the energy balance under random commands", "[control]", SimoKappa,
-                   SimoCollocation, SimoAlpha) {
+                   SimoCollocation, SimoAlpha, LGVI) {
   Wheels rw = four_wheels();
   const Mat3 J = (Mat3() << 900, 20, -10, 20, 800, 15, -10, 15, 600).finished();
   using Sc = Scene<double, Wheels>;
-  // Simo-κ and collocation with the compensated state (docs/theory.md §18); Simo-α has no
-  // memory to carry it in.
+  // Simo-κ, collocation and the LGVI with the compensated state (docs/theory.md §18); Simo-α
+  // has no memory to carry it in. The LGVI keeps π but has no discrete energy balance [V13].
   TestType scheme;
   constexpr bool compensated = requires { scheme.compensated; };
   if constexpr (compensated) scheme.compensated = true;
@@ -132,7 +132,7 @@ TEMPLATE_TEST_CASE("wheels: total momentum and the energy balance under random c
   // (measured 5.8e-16 after 10^5 steps).
   if constexpr (compensated) CHECK(max_pi <= 4e-15);
   else CHECK(max_pi <= 3 * std::sqrt(double(n)) * 2.22e-16);
-  CHECK(max_balance <= 1e-14);
+  if constexpr (!std::is_same_v<TestType, LGVI>) CHECK(max_balance <= 1e-14);
   // The commands did something: the wheels' speeds moved far from their start.
   CHECK((stepper.scene().template effect<Wheels>().speeds(s.time, s.omega) - four_wheels().speeds(0, Vec3::Zero())).norm() > 1);
 }
@@ -216,7 +216,7 @@ TEST_CASE("wheels: the splitting carries them", "[control]") {
 }
 
 // The LGVI carries wheels by its gyrostat term with the wheels' momentum at the step's mid
-// time [V13]: π exact under any command (compensated: to a few ε), order 2 and, being
+// time [V13]: π exact under any command (the test above), order 2 and, being
 // symmetric (a step back undoes a step), order 4 by Suzuki-5, from a Δt sweep against a
 // converged Simo-κ run. Four wheels (one skew) on a non-diagonal inertia.
 TEST_CASE("wheels: the LGVI carries them", "[control][fourth]") {
@@ -276,30 +276,7 @@ TEST_CASE("wheels: the LGVI carries them", "[control][fourth]") {
     CHECK(back <= 1e-14);
     CHECK((s1.omega - s0.omega).norm() > 1e-3);  // the step did move
   }
-  // π to a few ε over 10⁵ steps under random held commands, with the compensated state.
-  LGVI compensated;
-  compensated.compensated = true;
-  Stepper<LGVI, Sc> stepper(compensated, scene);
-  State<double> s;
-  s.rotation = SO3d::exp(Vec3(0.3, -0.2, 0.5));
-  s.omega = Vec3(0.05, -0.1, 0.2);
-  stepper.scene().template effect<Wheels>().start(0.0, s.omega);
-  trompo_test::Rng rng(36);
-  Schedule random_ctrl{[&](double) {
-                         WheelVector u(4);
-                         for (int i = 0; i < 4; ++i) u(i) = rng.uniform(-0.6, 0.6);
-                         return u;
-                       },
-                       {}};
-  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
-  double max_pi = 0;
-  auto obs = [&](const State<double>& x) {
-    max_pi = std::max(max_pi, (stepper.scene().spatial_momentum(x) - pi0).norm() / pi0.norm());
-  };
-  const int n = 100000;
-  REQUIRE(integrate_sampled(stepper, s, n * 0.02, 0.1, random_ctrl, FixedSteps<double>{0.02}, obs).ok());
-  INFO("compensated LGVI with wheels, 1e5 steps: max |pi - pi0|/|pi0| " << max_pi);
-  CHECK(max_pi <= 4e-15);
+  // π to a few ε over 10⁵ steps under random held commands: "wheels: total momentum …" above.
 }
 
 TEST_CASE("wheels: saturation clips u and stops a wheel at its speed limit", "[control]") {

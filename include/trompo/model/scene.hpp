@@ -27,6 +27,13 @@ constexpr bool time_dependent_rotor_effect() {
   if constexpr (requires { E::time_dependent_rotor; }) return static_cast<bool>(E::time_dependent_rotor);
   else return false;
 }
+/// True for an effect that reads the wheels' state (`reads_wheels = true`: a torque law of
+/// the wheels' speeds, torque_law.hpp [W15]); its cache takes the scene's wheels.
+template <class E>
+constexpr bool reads_wheels_effect() {
+  if constexpr (requires { E::reads_wheels; }) return static_cast<bool>(E::reads_wheels);
+  else return false;
+}
 /// True for an effect that declares `static constexpr bool time_dependent = true`
 /// (a potential V(Λ, t): the gravity gradient of an orbit).
 template <class E>
@@ -169,9 +176,10 @@ class Scene {
   Scalar momentum_map(const State<Scalar>& s) const { return momentum_axis().dot(spatial_momentum(s)); }
 
   // ---- assembly used by the schemes (frame of step n) ---------------------------------
-  /// Each effect's cache for a step from Λ_n, with mid time t_mid.
+  /// Each effect's cache for a step from Λ_n, with mid time t_mid (an effect that reads the
+  /// wheels' state is handed the scene's wheels as well [W15]).
   Caches caches(const Matrix3& Lambda_n, Scalar t_mid) const {
-    return std::apply([&](const auto&... e) { return Caches{e.cache(Lambda_n, t_mid)...}; }, effects_);
+    return std::apply([&](const auto&... e) { return Caches{cache_of(e, Lambda_n, t_mid)...}; }, effects_);
   }
 
   /// Σ V(Λ_n R)
@@ -272,6 +280,15 @@ class Scene {
   }
 
  private:
+  template <class E>
+  typename E::Cache cache_of(const E& e, const Matrix3& Lambda_n, Scalar t_mid) const {
+    if constexpr (detail::reads_wheels_effect<E>()) {
+      static_assert(has_wheels, "a torque law of the wheels' state needs a scene with ReactionWheels");
+      return e.cache(Lambda_n, t_mid, std::get<typename E::Wheels>(effects_));
+    } else {
+      return e.cache(Lambda_n, t_mid);
+    }
+  }
   template <class E>
   static bool take_up(const E& e, Vector3& axis) {
     if constexpr (requires { e.up(); }) {

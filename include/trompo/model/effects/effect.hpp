@@ -6,6 +6,11 @@
 //
 //   typename E::Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const;
 //
+// (An effect that reads the reaction wheels' state declares `static constexpr bool
+// reads_wheels = true` and `using Wheels = ReactionWheels<Scalar>`; the scene then calls
+// cache(Lambda_n, t_mid, wheels) with its own wheels effect: a torque law of the wheels'
+// speeds, torque_law.hpp [W15].)
+//
 // and, by kind, these members. Every torque is returned in the body frame of step n
 // (the frame in which the Simo residual [T1] is written); "R" is the rotation relative
 // to Λ_n of the configuration where it acts, Λ = Λ_n R, and a Jacobian "w.r.t. w" is

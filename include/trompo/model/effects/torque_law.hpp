@@ -28,6 +28,14 @@
 // 3-vector of Scalar or of Eigen::AutoDiffScalar<Vector3>. It returns a 3-vector of the same
 // scalar (write it generically, as above). A non-finite torque makes the step report
 // non_finite; RK4, the dense output and the explicit predictor call it at their own points.
+//
+// A law of the wheels' state ([W15]; wheel_torque_law<double>(f)) is called with
+// (t, Λ, Ω, speeds), speeds the wheels' speeds relative to the body (an Eigen vector of up to
+// 8 entries, of Ω's scalar). Inside a hold the wheels' absolute momenta h_i(t) are a known
+// linear law [W2], so Ω_i = h_i(t)/J_s,i − g_i·Ω is a function of (t, Ω), and such a law is a
+// law of (t, Λ, Ω) like any other: the scene hands it its ReactionWheels in the step's cache,
+// the speeds are formed from the AutoDiff Ω, and ∂τ/∂Ω takes in the −g_i terms by itself. Its
+// Jacobians are always by AutoDiff (a `jacobians` member is not read).
 #include <Eigen/Core>
 #include <type_traits>
 #include <unsupported/Eigen/AutoDiff>
@@ -36,6 +44,7 @@
 #include "trompo/errors.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/effects/effect.hpp"
+#include "trompo/model/effects/reaction_wheels.hpp"
 
 namespace trompo {
 
@@ -46,8 +55,9 @@ enum class Axes {
 };
 
 /// A torque law τ(t, Λ, Ω) of the user's own, in body or space axes, with Jacobians by
-/// automatic differentiation unless the callable has jacobians() [W7]–[W8].
-template <class Scalar_, class F, Axes A = Axes::body>
+/// automatic differentiation unless the callable has jacobians() [W7]–[W8]; with
+/// `of_wheels`, τ(t, Λ, Ω, speeds) of the scene's reaction wheels' speeds as well [W15].
+template <class Scalar_, class F, Axes A = Axes::body, bool of_wheels = false>
 class TorqueLaw {
  public:
   /// The scalar type.
@@ -62,8 +72,14 @@ class TorqueLaw {
   static constexpr Axes axes = A;
   /// The forward-mode scalar of the Jacobians: three derivative directions.
   using Dual = Eigen::AutoDiffScalar<Vector3>;
-  /// Whether the callable gives its own Jacobians (then no AutoDiff pass).
+  /// The wheels a law of their state reads (the scene's ReactionWheels effect) [W15].
+  using Wheels = ReactionWheels<Scalar>;
+  /// Whether the law reads the wheels' speeds: the scene then hands it its wheels (scene.hpp).
+  static constexpr bool reads_wheels = of_wheels;
+  /// Whether the callable gives its own Jacobians (then no AutoDiff pass; not for a law of
+  /// the wheels' state).
   static constexpr bool user_jacobians =
+      !of_wheels &&
       requires(const F& f, Scalar t, const Matrix3& L, const Vector3& w, Matrix3& Dw, Matrix3& Dv) {
         f.jacobians(t, L, w, Dw, Dv);
       };
@@ -74,22 +90,35 @@ class TorqueLaw {
   /// The callable.
   const F& function() const { return f_; }
 
-  /// The law at (t, Λ, Ω) in its own axes.
-  Vector3 operator()(Scalar t, const Matrix3& Lambda, const Vector3& omega) const {
+  /// The law at (t, Λ, Ω) in its own axes (a law of (t, Λ, Ω) only).
+  Vector3 operator()(Scalar t, const Matrix3& Lambda, const Vector3& omega) const
+    requires(!of_wheels)
+  {
     return Vector3(f_(t, Lambda, omega));
   }
 
-  /// Λ_n and the mid time.
+  /// Λ_n, the mid time and, for a law of the wheels' state, the scene's wheels.
   struct Cache {
-    Matrix3 Lambda_n;  ///< Λ_n, the attitude at the start of the step
-    Scalar t;          ///< t_{n+½}
+    Matrix3 Lambda_n;               ///< Λ_n, the attitude at the start of the step
+    Scalar t;                       ///< t_{n+½}
+    const Wheels* wheels = nullptr;  ///< the scene's wheels (a law of their state only)
   };
   /// Keeps Λ_n and t_{n+½}.
-  Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const { return {Lambda_n, t_mid}; }
+  Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const
+    requires(!of_wheels)
+  {
+    return {Lambda_n, t_mid};
+  }
+  /// Keeps Λ_n, t_{n+½} and the scene's wheels (the scene calls this one, scene.hpp) [W15].
+  Cache cache(const Matrix3& Lambda_n, Scalar t_mid, const Wheels& wheels) const
+    requires(of_wheels)
+  {
+    return {Lambda_n, t_mid, &wheels};
+  }
 
   /// The torque at Λ_n R_mid, Ω_m, in frame n.
   Vector3 torque(const Cache& c, const Matrix3& R_mid, const Vector3& omega_mid) const {
-    const Vector3 tau = (*this)(c.t, c.Lambda_n * R_mid, omega_mid);
+    const Vector3 tau = call(c, c.Lambda_n * R_mid, omega_mid);
     if constexpr (A == Axes::body) return R_mid * tau;
     else return c.Lambda_n.transpose() * tau;
   }
@@ -102,7 +131,7 @@ class TorqueLaw {
     if constexpr (user_jacobians) {
       Matrix3 D_v;
       f_.jacobians(c.t, Lambda, omega_mid, D_w, D_v);
-      if constexpr (A == Axes::body) tau = (*this)(c.t, Lambda, omega_mid);
+      if constexpr (A == Axes::body) tau = call(c, Lambda, omega_mid);
     } else {
       // Λ(w) = Λ (I + ŵ), w the three derivative directions at 0.
       Eigen::Matrix<Dual, 3, 3> L = Lambda.template cast<Dual>();
@@ -110,7 +139,7 @@ class TorqueLaw {
       const Dual w0(Scalar(0), 3, 0), w1(Scalar(0), 3, 1), w2(Scalar(0), 3, 2);
       W(0, 1) = -w2, W(0, 2) = w1, W(1, 0) = w2, W(1, 2) = -w0, W(2, 0) = -w1, W(2, 1) = w0;
       L = (L * W).eval();
-      const Eigen::Matrix<Dual, 3, 1> t_ad = f_(c.t, L, omega_mid.template cast<Dual>().eval());
+      const Eigen::Matrix<Dual, 3, 1> t_ad = call(c, L, omega_mid.template cast<Dual>().eval());
       for (int i = 0; i < 3; ++i) {
         tau(i) = t_ad(i).value();
         D_w.row(i) = t_ad(i).derivatives().transpose();
@@ -130,7 +159,7 @@ class TorqueLaw {
     } else {
       Eigen::Matrix<Dual, 3, 1> v;
       for (int k = 0; k < 3; ++k) v(k) = Dual(omega_mid(k), 3, k);
-      const Eigen::Matrix<Dual, 3, 1> t_ad = f_(c.t, Lambda.template cast<Dual>().eval(), v);
+      const Eigen::Matrix<Dual, 3, 1> t_ad = call(c, Lambda.template cast<Dual>().eval(), v);
       for (int i = 0; i < 3; ++i) D_v.row(i) = t_ad(i).derivatives().transpose();
     }
     if constexpr (A == Axes::body) return R_mid * D_v;
@@ -138,6 +167,24 @@ class TorqueLaw {
   }
 
  private:
+  /// The callable at (t, Λ, Ω) of the cache's time, with the wheels' speeds relative to the
+  /// body Ω_i = h_i(t)/J_s,i − g_i·Ω for a law of their state [W15] (of Ω's scalar, so that
+  /// AutoDiff sees the −g_i).
+  template <class LambdaM, class OmegaV>
+  auto call(const Cache& c, const LambdaM& Lambda, const OmegaV& omega) const {
+    using T = typename OmegaV::Scalar;
+    if constexpr (of_wheels) {
+      const Wheels& w = *c.wheels;
+      const typename Wheels::WheelVector h = w.momenta(c.t);
+      Eigen::Matrix<T, Eigen::Dynamic, 1, 0, Wheels::max_wheels, 1> speeds(w.size());
+      for (int i = 0; i < w.size(); ++i)
+        speeds(i) = T(h(i) / w.inertias()(i)) - w.axis(i).template cast<T>().dot(omega);
+      return Eigen::Matrix<T, 3, 1>(f_(c.t, Lambda, omega, speeds));
+    } else {
+      return Eigen::Matrix<T, 3, 1>(f_(c.t, Lambda, omega));
+    }
+  }
+
   F f_;
 };
 
@@ -146,6 +193,13 @@ class TorqueLaw {
 template <class Scalar, Axes A = Axes::body, class F>
 TorqueLaw<Scalar, std::decay_t<F>, A> torque_law(F&& f) {
   return TorqueLaw<Scalar, std::decay_t<F>, A>(std::forward<F>(f));
+}
+
+/// wheel_torque_law<double>(f): a law τ(t, Λ, Ω, speeds) of the scene's reaction wheels'
+/// speeds (relative to the body) as well [W15]; the scene must have a ReactionWheels effect.
+template <class Scalar, Axes A = Axes::body, class F>
+TorqueLaw<Scalar, std::decay_t<F>, A, true> wheel_torque_law(F&& f) {
+  return TorqueLaw<Scalar, std::decay_t<F>, A, true>(std::forward<F>(f));
 }
 
 }  // namespace trompo

@@ -87,6 +87,9 @@ const std::vector<Config>& configs() {
       {"split6-rev", "splitting chin-triple-jump (order 6), reversible control"},
       {"split6-rev-unheld", "the same, hold_invariants = false"},
       {"s6-rev", "Simo-k Kahan-Li-9 (order 6), reversible control"},
+      {"s6c-l3", "Simo-k Kahan-Li-9, compensated, H, mu and the Lagrange top's Omega3 held [A9]"},
+      {"s8c-l3", "Simo-k Kahan-Li-17 (order 8), compensated, H, mu and Omega3 held [A9]"},
+      {"s6-rev-l3", "Simo-k Kahan-Li-9, reversible control, H, mu and Omega3 held [A9]"},
   };
   return all;
 }
@@ -144,6 +147,7 @@ Row run_config(const std::string& name, double rtol, double max_step, const case
   if (name.find("unheld") != std::string::npos) opt.hold_invariants = false;
   if (name.rfind("s6c", 0) == 0 || name.rfind("s8c", 0) == 0) sk.compensated = true;
   if (name.find("-rev") != std::string::npos) opt.control = StepControl::reversible;
+  if (name.find("-l3") != std::string::npos) opt.hold_third_integral = true;
   if (name.rfind("split6", 0) == 0)
     return measure(name, Stepper<Splitting, Top>(Splitting(SplittingMethod::chin_triple_jump), c.scene), c, opt, T,
                    long_run);

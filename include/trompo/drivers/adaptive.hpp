@@ -139,6 +139,9 @@ struct AdaptiveOptions {
   /// correction of O(ε) removes the √N·ε walk of long runs. false: the steps' states as
   /// they come.
   bool hold_invariants = true;
+  /// With hold_invariants, also hold a Lagrange top's third integral Ω_s where H and μ are
+  /// held [A9] (drivers/invariant_hold.hpp): the nutation phase of long runs.
+  bool hold_third_integral = false;
 
   /// The largest `substeps`.
   static constexpr int max_substeps = 16;
@@ -252,7 +255,7 @@ struct AdaptiveLoop {
     span = opt.tolerance_over_span ? abs(te - tr.time) : Scalar(1);
     if (!(span > 0)) span = Scalar(1);
     norm = ErrorNorm<Scalar>{opt.atol, opt.rtol, span};
-    if (opt.hold_invariants) hold = InvariantHold<SceneOf>(st.scene(), tr, st.keeps());
+    if (opt.hold_invariants) hold = InvariantHold<SceneOf>(st.scene(), tr, st.keeps(), opt.hold_third_integral);
     events.list = ev;
   }
   using SceneOf = std::decay_t<decltype(std::declval<const Stepper&>().scene())>;

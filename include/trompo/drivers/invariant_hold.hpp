@@ -24,7 +24,19 @@
 // The H step is skipped where it has no direction (v = 0: a sleeping top, Ω ∥ Γ; Π̇ = 0: a
 // steady spin about a principal axis) or would need more than round-off's nudge (near
 // them, where H moves little with the state anyway).
+//
+// The Lagrange top's third integral [A9] (opt-in, `third_integral`): on a body symmetric
+// about a principal axis s (J_a = J_b) whose only effect is a uniform gravity with the centre
+// of mass on that axis, Ω_s is a third invariant of the flow, and the nutation frequency
+// depends on it as on H and μ. An energy-momentum scheme keeps H and μ but Ω_s only to its
+// truncation error (Simo-κ on HT0: 1e-14 … 7e-14 over 100 periods, a drift that moves the
+// nutation phase like t²). With it the hold solves for the one δΩ that restores all three
+// to first order,
+//     [ (JΓ)ᵀ ; (JΩ)ᵀ ; e_sᵀ ] δΩ = (μ₀ − μ, H₀ − H, Ω_s,0 − Ω_s),
+// under the same cap of 64ε|Ω|; where the system is singular (Ω⊥ ∥ Γ⊥, a cusp of the
+// nutation) or the cap is exceeded, the μ and H steps above are taken instead.
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -51,13 +63,16 @@ class InvariantHold {
   /// Holds, at their values in `first`, the invariants of `scene` that `keeps` names:
   /// H without applied torques or a time-dependent potential, μ where every potential is a
   /// uniform gravity about the scene's momentum axis γ (rotors allowed), π on the free body.
-  InvariantHold(const Scene& scene, const State<Scalar>& first, const Keeps& keeps) {
+  /// With `third_integral`, also Ω_s of a Lagrange top where H and μ are held [A9].
+  InvariantHold(const Scene& scene, const State<Scalar>& first, const Keeps& keeps, bool third_integral = false) {
     // Wheels: H changes by the motors' work, so nothing is held (the schemes keep π exactly).
     if constexpr (!Scene::has_applied_torque && !Scene::has_time_dependent_potential && !Scene::has_wheels) {
       energy_ = keeps.energy;
       momentum_map_ = keeps.momentum_map && !Scene::is_free && symmetric_about_axis(scene);
       spatial_momentum_ = keeps.spatial_momentum && Scene::is_free;
+      if (third_integral && energy_ && momentum_map_) lagrange_axis_ = lagrange_axis(scene);
     }
+    if (lagrange_axis_ >= 0) omega_s0_ = first.omega(lagrange_axis_);
     H0_ = scene.energy(first);
     mu0_ = scene.momentum_map(first);
     pi0_ = scene.spatial_momentum(first);
@@ -98,10 +113,54 @@ class InvariantHold {
     else return false;
   }
 
+  /// The axis s of a Lagrange top: J diagonal with J_a = J_b (s the third), every effect a
+  /// uniform gravity whose centre of mass lies on e_s; else −1.
+  static int lagrange_axis(const Scene& scene) {
+    const auto& J = scene.body().inertia();
+    if (!J.isDiagonal(Scalar(0))) return -1;
+    int axis = -1;
+    for (int k = 0; k < 3; ++k) {
+      const int a = (k + 1) % 3, b = (k + 2) % 3;
+      if (J(a, a) == J(b, b)) axis = k;
+    }
+    if (axis < 0) return -1;
+    bool on_axis = true;
+    std::apply([&](const auto&... e) { ((on_axis = on_axis && com_on(e, axis)), ...); }, scene.effects());
+    return on_axis ? axis : -1;
+  }
+  template <class E>
+  static bool com_on(const E& e, int axis) {
+    if constexpr (requires { e.com_direction(); }) {
+      const Vector3& c = e.com_direction();
+      return c((axis + 1) % 3) == Scalar(0) && c((axis + 2) % 3) == Scalar(0);
+    } else {
+      return false;
+    }
+  }
+
+  /// [A9]: the one δΩ that restores μ, H and Ω_s to first order; false where the system is
+  /// singular or the nudge would exceed the cap (the caller then takes the μ and H steps).
+  bool hold_three(const Scene& scene, State<Scalar>& s, const Vector3& Gamma, Scalar limit) const {
+    const auto& J = scene.body().inertia();
+    Eigen::Matrix<Scalar, 3, 3> A;
+    A.row(0) = (J * Gamma).transpose();    // ∂μ/∂Ω
+    A.row(1) = (J * s.omega).transpose();  // ∂H/∂Ω
+    A.row(2) = Vector3::Unit(lagrange_axis_).transpose();
+    const Scalar det = A.determinant();
+    if (!(std::abs(det) > Scalar(1e-8) * A.row(0).norm() * A.row(1).norm())) return false;  // Ω⊥ ∥ Γ⊥
+    const Vector3 r(mu0_ - Gamma.dot(scene.momentum(s.omega, s.time)), H0_ - scene.energy(s),
+                    omega_s0_ - s.omega(lagrange_axis_));
+    const Vector3 d = A.inverse() * r;
+    if (!(d.squaredNorm() <= limit)) return false;
+    s.omega += d;
+    return true;
+  }
+
   void hold_top(const Scene& scene, State<Scalar>& s) const {
     const auto& J = scene.body().inertia();
     const Scalar limit = nudge * nudge * s.omega.squaredNorm();  // |δΩ|² ≤ (64ε|Ω|)²
     const Vector3 Gamma = s.rotation.inverse() * scene.momentum_axis();  // Γ = Λᵀγ
+    if (lagrange_axis_ >= 0 && hold_three(scene, s, Gamma, limit)) return;  // [A9]
     const Vector3 JGamma = J * Gamma;
     const Scalar GJG = Gamma.dot(JGamma);
     if (momentum_map_) {
@@ -138,6 +197,8 @@ class InvariantHold {
   }
 
   bool energy_ = false, momentum_map_ = false, spatial_momentum_ = false;
+  int lagrange_axis_ = -1;  ///< the Lagrange top's axis s whose Ω_s is held [A9] (−1: none)
+  Scalar omega_s0_ = Scalar(0);
   Scalar H0_ = Scalar(0), mu0_ = Scalar(0);
   Vector3 pi0_ = Vector3::Zero();
 };

@@ -289,6 +289,10 @@ void CommandLine::declare(Config& c) {
         "tolerance mode's error estimate (default automatic: Richardson's for the splitting, else the\n"
         "interpolant's defect up to order 6 and step doubling above)",
         [&a](const std::string& v) { a.estimate = v; });
+  flag("--hold-third-integral",
+       "Lagrange top (symmetric body, centre of mass on its axis), simo schemes: hold Omega3 with H and\n"
+       "mu against drift (docs/theory.md [A9]; the nutation phase of long runs)",
+       [&a] { a.hold_third_integral = true; });
   value("--substeps", "M", "Richardson's estimate: steps per attempt, 2..16 (default 8)", [&a](const std::string& v) {
     const double m = parse_number("--substeps", v);
     constexpr int most = trompo::AdaptiveOptions<double>::max_substeps;
@@ -528,7 +532,8 @@ Config parse_flags(const std::map<std::string, std::string>& flags) {
   // it as it parses the CLI's.
   // A switch is given with an empty value; with another, parse_args refuses it. --event:
   // its occurrences joined by ';', as parse_args joins the CLI's.
-  static const std::set<std::string> switches = {"--energy-projection", "--allow-negative-damping", "--compensated"};
+  static const std::set<std::string> switches = {"--energy-projection", "--allow-negative-damping", "--compensated",
+                                                 "--hold-third-integral"};
   std::vector<std::string> args;
   for (const auto& [flag, value] : flags) args.push_back(switches.count(flag) && value.empty() ? flag : flag + "=" + value);
   Config c;

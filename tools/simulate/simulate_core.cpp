@@ -80,8 +80,8 @@ inline std::string rtol_warning(const Config& c) {
                 *c.adaptive.rtol_asked, c.adaptive.rtol);
 }
 
-/// The driver's options from --rtol, --atol, --control, --tol-scope, --estimate, --substeps
-/// and --dt (the first step; none: the driver's rule).
+/// The driver's options from --rtol, --atol, --control, --tol-scope, --estimate, --substeps,
+/// --hold-third-integral and --dt (the first step; none: the driver's rule).
 inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c) {
   using namespace trompo;
   const AdaptiveFlags& a = c.adaptive;
@@ -95,6 +95,7 @@ inline trompo::AdaptiveOptions<double> adaptive_options(const Config& c) {
                  : a.estimate == "richardson" ? ErrorEstimate::richardson
                                               : ErrorEstimate::automatic;
   opt.substeps = a.substeps;
+  opt.hold_third_integral = a.hold_third_integral;
   opt.first_step = c.dt ? std::abs(*c.dt) : 0.0;  // 0: the driver's rule (docs/adaptive.md)
   return opt;
 }

@@ -101,6 +101,7 @@ struct AdaptiveFlags {
   std::string tol_scope = "span";      ///< --tol-scope span|time
   std::string estimate = "automatic";  ///< --estimate automatic|defect|richardson|doubling
   int substeps = 0;                    ///< --substeps M (0: automatic)
+  bool hold_third_integral = false;    ///< --hold-third-integral (theory [A9])
   std::vector<double> t_eval;                         ///< --t-eval: rows at exactly these times
   std::vector<std::pair<std::string, int>> events;  ///< --event NAME[:terminal[:N]]: name, terminal count
   std::string event_csv;                             ///< --event-csv FILE
@@ -420,7 +421,8 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
 inline void check_adaptive(Config& c, const std::map<std::string, std::string>& flags) {
   AdaptiveFlags& a = c.adaptive;
   if (!a.on) {
-    for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--substeps", "--t-eval", "--event", "--event-csv"})
+    for (const char* f : {"--atol", "--control", "--tol-scope", "--estimate", "--substeps", "--t-eval", "--event", "--event-csv",
+                          "--hold-third-integral"})
       if (flags.count(f)) throw invalid_input(std::string(f) + ": only with adaptive steps (give --rtol)");
     return;
   }

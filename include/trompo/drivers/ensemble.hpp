@@ -36,6 +36,13 @@
 // Adaptive members: solve_ensemble runs solve() (adaptive.hpp: tolerances, t_eval, events,
 // dense output) per member on the same schedule, each result that single run's.
 //
+// Closed-loop members (a Monte-Carlo of flight software in the loop, docs/control.md):
+// integrate_sampled_ensemble runs integrate_sampled (sampled.hpp) per member, each on its own
+// copy of the stepper (its scene holds the wheels' hold and the held commands, which the
+// driver changes) and of the controller (its memory), the wheels started at the member's
+// state and then `setup(i, stepper_i, controller_i)` for per-member parameters; each result
+// is that single run's, bit for bit, with the wheels' speeds at its end.
+//
 // Cost. The only allocations are the summaries and the threads, before any step; no
 // allocation per step (the Stepper's guarantee); one atomic increment per chunk.
 //
@@ -57,6 +64,7 @@
 #include "trompo/errors.hpp"
 #include "trompo/drivers/adaptive.hpp"
 #include "trompo/drivers/integrate.hpp"
+#include "trompo/drivers/sampled.hpp"
 #include "trompo/model/state.hpp"
 
 namespace trompo {
@@ -222,6 +230,56 @@ std::vector<AdaptiveRun<typename StepperT::Scalar>> solve_ensemble(
     runs[i] = solve(stepper, initials[i], t_end, options, t_eval, events, dense);
   });
   return runs;
+}
+
+/// One closed-loop member's end: its state, its wheels' speeds relative to the body (empty
+/// without wheels), and what integrate_sampled did.
+template <class Scalar>
+struct SampledMember {
+  State<Scalar> state;                                          ///< at summary.time
+  typename ReactionWheels<Scalar>::WheelVector wheel_speeds;    ///< Ω_i at the end (rad/s)
+  SampledSummary<Scalar> summary;                               ///< samples, steps, why it stopped
+};
+
+namespace detail {
+/// No per-member parameters.
+struct NoSetup {
+  template <class StepperT, class Controller>
+  void operator()(std::size_t, StepperT&, Controller&) const {}
+};
+}  // namespace detail
+
+/// Closed-loop members: member i is integrate_sampled(stepper_i, state_i, t_end, period,
+/// controller_i, between) (sampled.hpp) from initials[i], where stepper_i and controller_i are
+/// copies of `stepper` and `controller`, the scene's wheels (if any) started at initials[i]
+/// (ReactionWheels::start: their initial speeds), then `setup(i, stepper_i, controller_i)`
+/// (per-member wheel speeds, gains, limits). Each member's result is that single run's, bit
+/// for bit, whatever the threads and the chunk. Throws invalid_input for a bad period or t_end
+/// before any member runs; a member whose run throws (its state not finite) makes the call
+/// throw once the others have finished.
+template <class StepperT, class Controller, class Between, class Setup = detail::NoSetup>
+std::vector<SampledMember<typename StepperT::Scalar>> integrate_sampled_ensemble(
+    const StepperT& stepper, const std::vector<State<typename StepperT::Scalar>>& initials,
+    typename StepperT::Scalar t_end, typename StepperT::Scalar period, const Controller& controller,
+    const Between& between, EnsembleOptions ensemble = {}, Setup setup = {}) {
+  using Scalar = typename StepperT::Scalar;
+  using Scene = std::decay_t<decltype(stepper.scene())>;
+  if (!std::isfinite(static_cast<double>(period)) || !(period > Scalar(0)))
+    detail::fail("integrate_sampled_ensemble: control period must be finite and > 0, got ", period);
+  if (!std::isfinite(static_cast<double>(t_end))) detail::fail("integrate_sampled_ensemble: t_end must be finite, got ", t_end);
+  std::vector<SampledMember<Scalar>> members(initials.size());
+  detail::for_each_member(initials.size(), ensemble, [&](std::size_t i) {
+    StepperT own = stepper;         // its scene: the wheels' hold and the held commands
+    Controller control = controller;  // its memory
+    State<Scalar> s = initials[i];
+    if constexpr (Scene::has_wheels) own.scene().template effect<ReactionWheels<Scalar>>().start(s.time, s.omega);
+    setup(i, own, control);
+    SampledMember<Scalar>& m = members[i];
+    m.summary = integrate_sampled(own, s, t_end, period, control, between);
+    m.state = s;
+    if constexpr (Scene::has_wheels) m.wheel_speeds = own.scene().template effect<ReactionWheels<Scalar>>().speeds(s.time, s.omega);
+  });
+  return members;
 }
 
 }  // namespace trompo

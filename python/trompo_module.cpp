@@ -151,35 +151,36 @@ CodeTorque python_torque_law(const py::handle& torque, const py::handle& jacobia
   CodeTorque law;
   if (torque.is_none()) return law;
   PyObject* fn = torque.ptr();
-  auto keep = [raised](py::error_already_set& e) {
-    *raised = e.value();
-    if (e.trace()) PyException_SetTraceback(raised->ptr(), e.trace().ptr());
-  };
-  auto keep_value_error = [raised](const std::string& what) {
-    *raised = py::reinterpret_steal<py::object>(PyObject_CallFunction(PyExc_ValueError, "s", what.c_str()));
-  };
-  law.torque = [fn, keep, keep_value_error](double t, const M3& Lambda, const V3& omega) -> V3 {
+  // Calls `body` (a call into Python) with the GIL held. An exception is kept in `raised` and
+  // the engine's call fails with LawRaised: Python's own (with its traceback), a cast failure
+  // as ValueError(`wrong_shape`), a ValueError the body threw as itself.
+  auto into_python = [raised](const char* wrong_shape, auto&& body) {
     py::gil_scoped_acquire gil;
     try {
+      return body();
+    } catch (py::error_already_set& e) {
+      *raised = e.value();
+      if (e.trace()) PyException_SetTraceback(raised->ptr(), e.trace().ptr());
+    } catch (const py::cast_error&) {
+      *raised = py::reinterpret_steal<py::object>(PyObject_CallFunction(PyExc_ValueError, "s", wrong_shape));
+    } catch (const py::builtin_exception& e) {
+      *raised = py::reinterpret_steal<py::object>(PyObject_CallFunction(PyExc_ValueError, "s", e.what()));
+    }
+    throw LawRaised{};
+  };
+  law.torque = [fn, into_python](double t, const M3& Lambda, const V3& omega) -> V3 {
+    return into_python("TorqueLaw: the law must return 3 numbers", [&] {
       auto [R, W] = arrays_of(Lambda, omega);
       const Array tau = py::cast<Array>(py::reinterpret_borrow<py::object>(fn)(t, R, W));
       if (tau.size() != 3 || tau.ndim() != 1)
         throw py::value_error("TorqueLaw: the law must return 3 numbers, got shape (" + std::to_string(tau.size()) + ",)");
       return V3(tau.data()[0], tau.data()[1], tau.data()[2]);
-    } catch (py::error_already_set& e) {
-      keep(e);
-    } catch (const py::cast_error&) {
-      keep_value_error("TorqueLaw: the law must return 3 numbers");
-    } catch (const py::builtin_exception& e) {
-      keep_value_error(e.what());
-    }
-    throw LawRaised{};
+    });
   };
   if (jacobian.is_none()) return law;
   PyObject* jac = jacobian.ptr();
-  law.jacobians = [jac, keep, keep_value_error](double t, const M3& Lambda, const V3& omega, M3& D_w, M3& D_v) {
-    py::gil_scoped_acquire gil;
-    try {
+  law.jacobians = [jac, into_python](double t, const M3& Lambda, const V3& omega, M3& D_w, M3& D_v) {
+    into_python("TorqueLaw: the jacobian must return two 3x3 arrays (D_w, D_Omega)", [&] {
       auto [R, W] = arrays_of(Lambda, omega);
       const py::tuple out = py::cast<py::tuple>(py::reinterpret_borrow<py::object>(jac)(t, R, W));
       if (out.size() != 2) throw py::value_error("TorqueLaw: the jacobian must return (D_w, D_Omega)");
@@ -188,15 +189,7 @@ CodeTorque python_torque_law(const py::handle& torque, const py::handle& jacobia
         throw py::value_error("TorqueLaw: the jacobian must return two 3x3 arrays (D_w, D_Omega)");
       D_w = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data());
       D_v = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(b.data());
-      return;
-    } catch (py::error_already_set& e) {
-      keep(e);
-    } catch (const py::cast_error&) {
-      keep_value_error("TorqueLaw: the jacobian must return two 3x3 arrays (D_w, D_Omega)");
-    } catch (const py::builtin_exception& e) {
-      keep_value_error(e.what());
-    }
-    throw LawRaised{};
+    });
   };
   return law;
 }

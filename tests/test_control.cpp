@@ -597,10 +597,7 @@ struct UnloadingByHand {
   template <class Lam, class Om>
   auto operator()(double t, const Lam& Lambda, const Om& omega) const {
     using T = typename Om::Scalar;
-    const Wheels::WheelVector h = hold.momenta(t);
-    Eigen::Matrix<T, Eigen::Dynamic, 1, 0, 8, 1> speeds(hold.size());
-    for (int i = 0; i < hold.size(); ++i) speeds(i) = T(h(i) / hold.inertias()(i)) - hold.axis(i).template cast<T>().dot(omega);
-    return law(t, Lambda, omega, speeds);
+    return law(t, Lambda, omega, hold.speeds(t, Eigen::Matrix<T, 3, 1>(omega)));
   }
 };
 }  // namespace

@@ -168,9 +168,14 @@ class ReactionWheels {
   /// h_i(t) = h_i(t_k) + u_i (t − t_k): the absolute axial momenta [W2].
   WheelVector momenta(Scalar t) const { return h_k_ + u_ * (t - t_k_); }
   /// Ω_i(t) = h_i(t)/J_s,i − g_i·Ω: the speeds relative to the body.
-  WheelVector speeds(Scalar t, const Vector3& omega) const {
-    WheelVector w = momenta(t);
-    for (int i = 0; i < n_; ++i) w(i) = w(i) / Js_(i) - axes_.col(i).dot(omega);
+  WheelVector speeds(Scalar t, const Vector3& omega) const { return speeds<Scalar>(t, omega); }
+  /// The same of Ω's scalar T (a torque law of the wheels' state calls it with AutoDiff
+  /// scalars, torque_law.hpp [W15]).
+  template <class T>
+  Eigen::Matrix<T, Eigen::Dynamic, 1, 0, max_wheels, 1> speeds(Scalar t, const Eigen::Matrix<T, 3, 1>& omega) const {
+    const WheelVector h = momenta(t);
+    Eigen::Matrix<T, Eigen::Dynamic, 1, 0, max_wheels, 1> w(n_);
+    for (int i = 0; i < n_; ++i) w(i) = T(h(i) / Js_(i)) - axes_.col(i).template cast<T>().dot(omega);
     return w;
   }
   /// h_r(t) = Σ h_i(t) g_i, body axes.

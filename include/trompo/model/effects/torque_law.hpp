@@ -174,12 +174,7 @@ class TorqueLaw {
   auto call(const Cache& c, const LambdaM& Lambda, const OmegaV& omega) const {
     using T = typename OmegaV::Scalar;
     if constexpr (of_wheels) {
-      const Wheels& w = *c.wheels;
-      const typename Wheels::WheelVector h = w.momenta(c.t);
-      Eigen::Matrix<T, Eigen::Dynamic, 1, 0, Wheels::max_wheels, 1> speeds(w.size());
-      for (int i = 0; i < w.size(); ++i)
-        speeds(i) = T(h(i) / w.inertias()(i)) - w.axis(i).template cast<T>().dot(omega);
-      return Eigen::Matrix<T, 3, 1>(f_(c.t, Lambda, omega, speeds));
+      return Eigen::Matrix<T, 3, 1>(f_(c.t, Lambda, omega, c.wheels->speeds(c.t, Eigen::Matrix<T, 3, 1>(omega))));
     } else {
       return Eigen::Matrix<T, 3, 1>(f_(c.t, Lambda, omega));
     }

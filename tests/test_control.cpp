@@ -3,6 +3,7 @@
 // built-in controllers, and their failure contracts.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -677,6 +678,77 @@ TEST_CASE("magnetorquer: the dipole field and the torque m x B", "[control]") {
   const Mat3 D = mtq.torque_jacobian_rotation(c, R, Vec3::Zero());
   CHECK((D - fd).norm() <= 1e-8 * D.norm());
   CHECK(mtq.saturate(Vec3(1, -1, 0.1)) == Vec3(0.2, -0.2, 0.1));
+}
+
+// [W16] B from the hold's phase by angle addition: the same field to round-off as four
+// trigonometric calls, up to |δ| = 1/64 and beyond it (where the angles are taken afresh).
+TEST_CASE("magnetorquer: the field by angle addition from the hold's phase", "[control]") {
+  const double pi = 3.14159265358979323846;
+  const CircularOrbit<double> orbit(6771e3, 51.6 * pi / 180, 0.4, 0.1);
+  const DipoleField<double> field(orbit, -29404.8, -1450.9, 4652.5, 0.7);
+  using LD = long double;
+  const DipoleField<LD> truth(CircularOrbit<LD>(6771e3L, LD(51.6) * LD(pi) / 180, LD(0.4), LD(0.1)), LD(-29404.8),
+                              LD(-1450.9), LD(4652.5), LD(0.7));
+  const double n = orbit.rate();
+  double worst = 0, worst_direct = 0;
+  int fresh = 0;
+  for (const double t0 : {0.0, 1234.5, 55451.25, -800.0}) {
+    const auto phase = field.phase(t0);
+    for (const double frac : {1e-9, 1e-4, 0.01, 0.3, 0.99, 1.0, 1.5, 40.0}) {
+      for (const double sign : {1.0, -1.0}) {
+        const double t = t0 + sign * frac / (64 * n);  // |δu| = frac/64
+        const Vec3 exact = truth.inertial(LD(t)).cast<double>();
+        // Both evaluations round the angles' arguments: ε(1 + |u| + |θ|) relative is their floor.
+        const double floor = 2.2e-16 * (1 + std::abs(orbit.latitude(t)) + std::abs(0.7 + DipoleField<double>::earth_rate * t));
+        worst = std::max(worst, (field.inertial(t, phase) - exact).norm() / exact.norm() / floor);
+        worst_direct = std::max(worst_direct, (field.inertial(t) - exact).norm() / exact.norm() / floor);
+        if (frac > 1) ++fresh;
+      }
+    }
+  }
+  INFO("worst error in units of the floor: by addition " << worst << ", afresh " << worst_direct);
+  CHECK(worst <= 4);
+  CHECK(worst_direct <= 4);
+  CHECK(fresh == 16);
+  // Without a phase (a dipole set directly, not held) B is evaluated afresh: exactly inertial(t).
+  CHECK(field.inertial(321.0, DipoleField<double>::Phase{}) == field.inertial(321.0));
+  // The orbit's in-plane basis gives the same r̂ as [W9] written out.
+  const double u = orbit.latitude(77.0), i = 51.6 * pi / 180, raan = 0.4;
+  const Vec3 r(std::cos(u) * std::cos(raan) - std::sin(u) * std::cos(i) * std::sin(raan),
+               std::cos(u) * std::sin(raan) + std::sin(u) * std::cos(i) * std::cos(raan), std::sin(u) * std::sin(i));
+  CHECK((orbit.radial(77.0) - r).norm() <= 4e-16);
+}
+
+// [W16] Steps that follow the rate: each hold split into max(⌈T/h⌉, ⌈|Ω_k|T/θ⌉) equal steps,
+// landing on every sample; a bad max_angle is refused before anything runs.
+TEST_CASE("sampled: steps limited by the angle turned at the sample's rate", "[control]") {
+  using Sc = FreeScene<double>;
+  Stepper<Splitting, Sc> stepper(Splitting(SplittingMethod::strang), Sc(RigidBody<double>(Vec3(3, 2, 1))));
+  auto none = [](const Sample<double>&) { return Command<double>{}; };
+  const double T = 0.25;
+  for (const double w : {0.01, 0.5, 2.0, 9.0}) {
+    State<double> s;
+    s.omega = Vec3(w, 0, 0);  // a steady spin about the major axis: |Ω| stays w
+    const FixedSteps<double> between{T, {}, 0.1};
+    const long expected = std::max(1L, static_cast<long>(std::ceil(w * T / 0.1)));
+    CHECK(between.step_for(w, T) == Approx(T / static_cast<double>(expected)).epsilon(1e-15));
+    std::vector<double> times;
+    const auto sum = integrate_sampled(stepper, s, 2.0, T, none, between, [&](const State<double>& x) { times.push_back(x.time); });
+    REQUIRE(sum.ok());
+    INFO("|Omega| = " << w);
+    CHECK(sum.steps == 8 * expected);
+    CHECK(s.time == 2.0);
+    for (int k = 0; k <= 8; ++k) CHECK(std::count(times.begin(), times.end(), k * T) == 1);  // every sample is a grid point
+  }
+  // h still bounds the step where the rate allows a longer one; backward runs divide |Δt|.
+  CHECK(FixedSteps<double>{0.05, {}, 0.1}.step_for(0.01, 0.25) == Approx(0.05).epsilon(1e-15));
+  CHECK(FixedSteps<double>{-0.25, {}, 0.1}.step_for(2.0, -0.25) == Approx(-0.05).epsilon(1e-15));
+  CHECK(FixedSteps<double>{0.25}.step_for(100.0, 0.25) == 0.25);  // max_angle 0: off
+  State<double> s;
+  s.omega = Vec3(1, 0, 0);
+  CHECK_THROWS_WITH(integrate_sampled(stepper, s, 1.0, T, none, FixedSteps<double>{T, {}, -0.1}), Catch::Contains("max_angle"));
+  CHECK_THROWS_WITH(integrate_sampled(stepper, s, 1.0, T, none, FixedSteps<double>{T, {}, NAN}), Catch::Contains("max_angle"));
+  CHECK(s.time == 0.0);
 }
 
 TEST_CASE("mrp: conventions of Basilisk's mrpFeedback", "[control]") {

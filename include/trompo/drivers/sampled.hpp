@@ -27,6 +27,7 @@
 // The observer, if given, is called as observer(const State&) at t_0 and at each grid point
 // after it, once; at a sample it is called after the new command is held, so that
 // stepper.scene() shows the command that starts there.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <iomanip>
@@ -77,15 +78,38 @@ struct SampledSummary {
   }
 };
 
-/// Between samples: fixed steps of h by integrate() (recovery by sub-steps), landing on the samples.
+/// Between samples: fixed steps of h by integrate() (recovery by sub-steps), landing on the
+/// samples. With max_angle > 0 the steps follow the body's rate [W16]: each hold is divided into
+/// the fewest equal steps, none longer than |h|, that turn the body by at most max_angle at the
+/// rate of the hold's start, n = max(⌈|Δt|/|h|⌉, ⌈|Ω_k||Δt|/max_angle⌉): a tumbling body gets
+/// several steps a sample, a slow one a single step of the whole hold.
 template <class Scalar>
 struct FixedSteps {
   Scalar h;                      ///< the step (its sign must match the direction of the run)
   IntegrateOptions options{};    ///< integrate's recovery
+  Scalar max_angle = Scalar(0);  ///< the most a step may turn the body (rad) at the sample's rate; 0: off
+
+  /// Throws invalid_input for a max_angle that is negative or not finite (integrate_sampled
+  /// calls it before anything runs; h is checked by the stepper).
+  void validate() const {
+    if (!std::isfinite(static_cast<double>(max_angle)) || !(max_angle >= Scalar(0)))
+      detail::fail("sampled: max_angle must be finite and >= 0 (rad), got ", max_angle);
+  }
+  /// The step for a hold of signed length `span` at the rate |Ω| = `rate`: h, or with
+  /// max_angle > 0, span/n as above.
+  Scalar step_for(Scalar rate, Scalar span) const {
+    using std::abs, std::ceil, std::max;
+    if (!(max_angle > Scalar(0)) || !(abs(h) > Scalar(0)) || span == Scalar(0)) return h;
+    const Scalar by_h = ceil(abs(span) / abs(h)), by_angle = ceil(rate * abs(span) / max_angle);
+    const Scalar n = max(Scalar(1), max(by_h, by_angle));
+    if (!std::isfinite(static_cast<double>(n))) return h;
+    return span / n;
+  }
   /// Integrates `traj` to t_next; adds to the summary; false on an unrecovered failure.
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& stepper, Traj& traj, Scalar t_next, Obs&& obs, SampledSummary<Scalar>& sum) const {
-    const IntegrationSummary<Scalar> s = integrate(stepper, traj, t_next, h, std::forward<Obs>(obs), options);
+    const Scalar step = step_for(traj.omega.norm(), t_next - traj.time);
+    const IntegrationSummary<Scalar> s = integrate(stepper, traj, t_next, step, std::forward<Obs>(obs), options);
     sum.steps += s.steps + s.substeps;
     sum.failures += s.failures;
     sum.status = s.status;
@@ -193,7 +217,7 @@ void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const 
     scene.template effect<HeldBodyTorque<Scalar>>().function().value = c.body_torque;
   if constexpr (scene_has_v<Magnetorquer<Scalar>, Scene>) {
     auto& mtq = scene.template effect<Magnetorquer<Scalar>>();
-    mtq.dipole = mtq.saturate(c.dipole);
+    mtq.hold(smp.time, mtq.saturate(c.dipole));
   }
 }
 
@@ -219,6 +243,7 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
   if (!std::isfinite(static_cast<double>(period)) || !(period > Scalar(0)))
     detail::fail("sampled: control period must be finite and > 0, got ", period);
   if (!std::isfinite(static_cast<double>(t_end))) detail::fail("sampled: t_end must be finite, got ", t_end);
+  if constexpr (requires { between.validate(); }) between.validate();
   state.validate();
   constexpr bool observed = !std::is_same_v<Observer, NoObserver>;
   SampledSummary<Scalar> sum;

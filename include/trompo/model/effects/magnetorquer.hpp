@@ -54,18 +54,25 @@ class CircularOrbit {
     if (!std::isfinite(static_cast<double>(raan))) detail::fail("orbit: non-finite node ", raan);
     if (!std::isfinite(static_cast<double>(latitude0))) detail::fail("orbit: non-finite argument of latitude ", latitude0);
     n_ = std::sqrt(Scalar(mu_earth) / (r_ * r_ * r_));
+    using std::cos, std::sin;
+    // The in-plane basis of [W9]: r̂ = cos u p̂ + sin u q̂ (node line and its normal in the plane).
+    p_ = Vector3(cos(raan_), sin(raan_), Scalar(0));
+    q_ = Vector3(-cos(i_) * sin(raan_), cos(i_) * cos(raan_), sin(i_));
   }
   /// The radius (m).
   Scalar radius() const { return r_; }
   /// The rate n = √(μ_E/r³) (rad/s).
   Scalar rate() const { return n_; }
-  /// r̂ at t, inertial axes.
+  /// The argument of latitude u = u₀ + n t (rad).
+  Scalar latitude(Scalar t) const { return u0_ + n_ * t; }
+  /// r̂ at t, inertial axes [W9].
   Vector3 radial(Scalar t) const {
     using std::cos, std::sin;
-    const Scalar u = u0_ + n_ * t;
-    return Vector3(cos(u) * cos(raan_) - sin(u) * cos(i_) * sin(raan_),
-                   cos(u) * sin(raan_) + sin(u) * cos(i_) * cos(raan_), sin(u) * sin(i_));
+    const Scalar u = latitude(t);
+    return radial_of(cos(u), sin(u));
   }
+  /// r̂ = cos u p̂ + sin u q̂ from cos u and sin u.
+  Vector3 radial_of(Scalar cos_u, Scalar sin_u) const { return cos_u * p_ + sin_u * q_; }
   /// r̂(0).
   Vector3 radial0() const { return radial(Scalar(0)); }
   /// The orbit normal ô (along r × v), inertial axes.
@@ -76,6 +83,7 @@ class CircularOrbit {
 
  private:
   Scalar r_, i_, raan_, u0_, n_ = Scalar(0);
+  Vector3 p_ = Vector3::Zero(), q_ = Vector3::Zero();  ///< the in-plane basis
 };
 
 /// The geomagnetic field as a centred tilted dipole along a circular orbit [W10].
@@ -96,24 +104,63 @@ class DipoleField {
       : orbit_(orbit), m0_(Vector3(g11, h11, g10) * Scalar(1e-9)), theta0_(greenwich0) {
     if (!detail::all_finite(m0_) || !(m0_.norm() > Scalar(0)))
       detail::fail("field: the Gauss coefficients (g10, g11, h11) must be finite and not all zero");
+    const Scalar k = Scalar(earth_radius) / orbit_.radius();
+    m0_ *= k * k * k;  // the dipole at the orbit's radius: B = 3(m·r̂)r̂ − m
   }
   /// The orbit.
   const CircularOrbit<Scalar>& orbit() const { return orbit_; }
 
-  /// B at time t in inertial axes (tesla).
-  Vector3 inertial(Scalar t) const {
+  /// The field's two angles at a time t₀, the Greenwich angle θ and the argument of latitude u,
+  /// by their cosines and sines: from them B at a nearby time costs no trigonometric call
+  /// (angle addition, [W10]). A magnetorquer keeps the phase of its hold's start.
+  struct Phase {
+    Scalar t = Scalar(0);                                  ///< t₀
+    Scalar cos_theta = Scalar(1), sin_theta = Scalar(0);  ///< θ(t₀)
+    Scalar cos_u = Scalar(1), sin_u = Scalar(0);          ///< u(t₀)
+    bool valid = false;                                    ///< set by phase()
+  };
+  /// The phase at t.
+  Phase phase(Scalar t) const {
     using std::cos, std::sin;
-    const Scalar th = theta0_ + Scalar(earth_rate) * t;
-    // The dipole axis, Earth-fixed → inertial: a rotation by θ about z.
-    const Vector3 m(cos(th) * m0_.x() - sin(th) * m0_.y(), sin(th) * m0_.x() + cos(th) * m0_.y(), m0_.z());
-    const Vector3 r = orbit_.radial(t);
-    const Scalar k = Scalar(earth_radius) / orbit_.radius();
-    return (k * k * k) * (Scalar(3) * m.dot(r) * r - m);  // [W10]
+    const Scalar th = theta0_ + Scalar(earth_rate) * t, u = orbit_.latitude(t);
+    return {t, cos(th), sin(th), cos(u), sin(u), true};
+  }
+
+  /// B at time t in inertial axes (tesla) [W10].
+  Vector3 inertial(Scalar t) const { return inertial_of(phase(t)); }
+
+  /// B at time t from the phase p of a nearby time: cos(a + δ) = cos a cos δ − sin a sin δ with
+  /// δ = rate·(t − p.t) and cos δ, sin δ by their series, exact in double for |δ| ≤ 1/64 (the
+  /// first term left out, δ⁷/5040 or δ⁸/40320, is below 2⁻⁵⁶|δ|). Farther from p.t (or
+  /// without a phase) the angles are evaluated afresh.
+  Vector3 inertial(Scalar t, const Phase& p) const {
+    using std::abs;
+    const Scalar dt = t - p.t;
+    const Scalar du = orbit_.rate() * dt, dth = Scalar(earth_rate) * dt;
+    if (!p.valid || !(abs(du) <= Scalar(1) / Scalar(64)) || !(abs(dth) <= Scalar(1) / Scalar(64))) return inertial(t);
+    Scalar cu, su, cth, sth;
+    small_angle(du, cu, su);
+    small_angle(dth, cth, sth);
+    return inertial_of({t, p.cos_theta * cth - p.sin_theta * sth, p.sin_theta * cth + p.cos_theta * sth,
+                        p.cos_u * cu - p.sin_u * su, p.sin_u * cu + p.cos_u * su, true});
   }
 
  private:
+  /// B from the angles' cosines and sines [W10].
+  Vector3 inertial_of(const Phase& p) const {
+    // The dipole axis, Earth-fixed → inertial: a rotation by θ about z.
+    const Vector3 m(p.cos_theta * m0_.x() - p.sin_theta * m0_.y(), p.sin_theta * m0_.x() + p.cos_theta * m0_.y(), m0_.z());
+    const Vector3 r = orbit_.radial_of(p.cos_u, p.sin_u);
+    return Scalar(3) * m.dot(r) * r - m;  // m₀ carries the factor (R_E/r)³
+  }
+  /// cos δ and sin δ for |δ| ≤ 1/64 by their series to δ⁶ and δ⁷.
+  static void small_angle(Scalar d, Scalar& c, Scalar& s) {
+    const Scalar d2 = d * d;
+    s = d * (Scalar(1) - d2 * Scalar(1.0L / 6) * (Scalar(1) - d2 * Scalar(1.0L / 20) * (Scalar(1) - d2 * Scalar(1.0L / 42))));
+    c = Scalar(1) - d2 * Scalar(0.5) * (Scalar(1) - d2 * Scalar(1.0L / 12) * (Scalar(1) - d2 * Scalar(1.0L / 30)));
+  }
   CircularOrbit<Scalar> orbit_;
-  Vector3 m0_;  ///< (g11, h11, g10) in tesla
+  Vector3 m0_;  ///< (g11, h11, g10)(R_E/r)³ in tesla
   Scalar theta0_;
 };
 
@@ -137,8 +184,16 @@ class Magnetorquer {
     if (!(max_dipole_.minCoeff() > Scalar(0))) detail::fail("magnetorquer: max_dipole must be > 0 per axis");
   }
 
-  /// The held dipole (A m², body axes): set between steps, by the sampled driver.
+  /// The held dipole (A m², body axes): set between steps, by the sampled driver (hold()).
   Vector3 dipole = Vector3::Zero();
+
+  /// Holds the dipole m from the sample time t on, and keeps the field's phase at t: the steps
+  /// of the hold evaluate B by angle addition from it instead of four trigonometric calls (the
+  /// same B to round-off; setting `dipole` alone is as correct, B is then evaluated afresh).
+  void hold(Scalar t, const Vector3& m) {
+    dipole = m;
+    phase_ = field_.phase(t);
+  }
 
   /// The field.
   const DipoleField<Scalar>& field() const { return field_; }
@@ -152,7 +207,9 @@ class Magnetorquer {
     Vector3 b;  ///< the field in frame n (tesla)
   };
   /// The field at the mid time, in frame n.
-  Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const { return {Lambda_n.transpose() * field_.inertial(t_mid)}; }
+  Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const {
+    return {Lambda_n.transpose() * field_.inertial(t_mid, phase_)};
+  }
 
   /// (R m) × b.
   Vector3 torque(const Cache& c, const Matrix3& R_mid, const Vector3& /*omega_mid*/) const {
@@ -168,6 +225,7 @@ class Magnetorquer {
  private:
   DipoleField<Scalar> field_;
   Vector3 max_dipole_;
+  typename DipoleField<Scalar>::Phase phase_{};  ///< the field's phase at the hold's start
 };
 
 }  // namespace trompo

@@ -4,7 +4,9 @@
 //                                     the controller sampled every T, its commands held, and
 //                                     between samples m steps of h = T/m (trompo's schemes,
 //                                     and odeint's runge_kutta4 "sub-stepping each sample"
-//                                     as Basilisk, 42 and S2E do), or odeint's dopri5
+//                                     as Basilisk, 42 and S2E do; "angle:θ" instead of "m":
+//                                     the fewest steps a sample that turn the body by at most
+//                                     θ at the sample's rate, FixedSteps::max_angle), or odeint's dopri5
 //                                     restarted at each sample at abs = rel = tol (a SciPy
 //                                     user's solve_ivp loop). CPU time per iteration = the
 //                                     run's. Counters: err_rot (‖Λ − Λref‖_F at the end),
@@ -201,9 +203,9 @@ Outcome run(StepperT stepper, const Between& between, bool watch_momentum) {
 }
 
 template <class Case>
-Outcome splitting_run(SplittingMethod method, int m, bool watch) {
+Outcome splitting_run(SplittingMethod method, int m, bool watch, double max_angle = 0) {
   return run<Case>(Stepper<Splitting, typename Case::Sc>(Splitting(method), Case::scene()),
-                   FixedSteps<double>{Case::period / m}, watch);
+                   FixedSteps<double>{Case::period / m, {}, max_angle}, watch);
 }
 template <class Case>
 Outcome simo_run(int order, int m, bool watch) {
@@ -274,8 +276,15 @@ void register_case() {
     add("splitting-kahan-li-9", "m:" + std::to_string(m), [m](bool w) { return splitting_run<Case>(SplittingMethod::kahan_li_9, m, w); });
     add("simo-kappa-o6", "m:" + std::to_string(m), [m](bool w) { return simo_run<Case>(6, m, w); });
   }
+  // Steps that follow the rate [W16]: each hold in the fewest steps that turn the body by at
+  // most θ at the sample's rate (one step a sample at least).
+  for (const char* theta : {"0.1", "0.15", "0.2"}) {
+    const double th = std::stod(theta);
+    add("splitting-kahan-li-9", std::string("angle:") + theta,
+        [th](bool w) { return splitting_run<Case>(SplittingMethod::kahan_li_9, 1, w, th); });
+  }
   for (int m : mrk) add("odeint-rk4", "m:" + std::to_string(m), [m](bool w) { return rk4_run<Case>(m, w); });
-  for (int k : {6, 8, 10, 12, 14}) {
+  for (int k : {6, 8, 10, 12, 13, 14}) {
     const double tol = std::pow(10.0, -k);
     add("odeint-dopri5", "tol:1e-" + std::to_string(k), [tol](bool w) { return dopri5_run<Case>(tol, w); });
   }

@@ -183,6 +183,22 @@ def test_bdot_runs_in_the_field():
     assert np.linalg.norm(res.W[-1]) < np.linalg.norm(res.W[0])
 
 
+def test_steps_follow_the_rate_with_max_step_angle():
+    """|Ω| = 0.866 rad/s turns 0.2165 rad a 0.25 s hold: 0.05 rad a step is 5 steps a sample,
+    and the samples stay grid points; a bad angle is refused in Python words."""
+    sc = trompo.Spacecraft([0.035, 0.034, 0.01], orbit=trompo.Orbit(6771e3, math.radians(51.6)), max_dipole=0.2)
+    s0 = trompo.initial_state(rotvec=(0, 0, 0), omega=(0.5, 0.5, 0.5))
+    kw = dict(dt=0.25, period=0.25, controller=trompo.BDot(1e5), scheme="splitting")
+    res = trompo.control(sc, s0, 2.0, max_step_angle=0.05, **kw)
+    assert res.success and len(res.t) == 41
+    assert all(np.any(res.t == 0.25 * k) for k in range(9))
+    assert len(trompo.control(sc, s0, 2.0, **kw).t) == 9  # one step a sample without it
+    with pytest.raises(ValueError, match="max_step_angle: must be > 0"):
+        trompo.control(sc, s0, 2.0, max_step_angle=-1.0, **kw)
+    with pytest.raises(ValueError, match="max_step_angle: fixed steps only, not with rtol"):
+        trompo.control(sc, s0, 2.0, max_step_angle=0.1, rtol=1e-8, **kw)
+
+
 def test_unknown_keywords_are_type_errors_with_a_suggestion():
     with pytest.raises(TypeError, match=r"simulate\(\) got an unexpected keyword argument 't_edn'; did you mean 't_end'"):
         trompo.simulate(case="ht1", t_edn=1)

@@ -642,7 +642,7 @@ class CommandError(ControlError, ValueError):
 
 
 def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6, t_eval=None, events=None,
-            dense_output=False, scheme="simo-kappa", order=2, every=1):
+            dense_output=False, scheme="simo-kappa", order=2, every=1, max_step_angle=None):
     """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
     or a Python callable ``f(t, R, W, wheel_speeds, memory)`` returning a dict of commands)
     sampled every ``period``, its commands held in between: fixed steps of ``dt``, or with
@@ -650,6 +650,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
     ``t_eval`` and ``events`` (non-terminal: built-in names or callables g(t, y)) as
     solve_ivp's, across the samples; ``dense_output``: ``res.sol(t)`` as solve_ivp's (the
     run again with rows at t, a Python controller starting from a fresh memory).
+    ``max_step_angle`` (rad, fixed steps): each hold split into the fewest equal steps, none
+    longer than ``dt``, that turn the body by at most this angle at the sample's rate.
 
     Returns a ControlResult; raises ValueError, CommandError, ControlError or StepFailed,
     carrying the rows so far. docs/python.md, "Control in the loop from Python".
@@ -677,6 +679,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
              "--scheme": str(scheme), "--control-period": repr(period)}
     if dt is not None:
         flags["--dt"] = repr(dt)
+    if max_step_angle is not None:
+        flags["--max-step-angle"] = _number("max_step_angle", max_step_angle)
     if t_eval is None:
         flags["--every"] = str(int(every))
     names, code_events = [], []

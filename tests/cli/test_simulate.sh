@@ -284,6 +284,12 @@ check "mrp-pd without wheels (a body torque): exit 0, 19 columns" \
   --control-period 0.25 --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 >"$tmp/bdot.csv" 2>&1; rc=$?
 check "bdot with the field flags: exit 0, the rate falls" \
   '[ $rc -eq 0 ] && awk -F, "NR==2{w=\$11^2+\$12^2+\$13^2} END{exit !(\$11^2+\$12^2+\$13^2 < w)}" "$tmp/bdot.csv"'
+# --max-step-angle: |Omega| = 0.866 rad/s turns 0.2165 rad in a 0.25 s hold, so 0.05 rad a step
+# is 5 steps a sample (ceil 4.33): 8 samples of the splitting give 40 step rows and the first.
+"$sim" --inertia 0.035,0.034,0.01 --omega 0.5,0.5,0.5 --scheme splitting --dt 0.25 --t-end 2 --every 1 --controller bdot:1e5 \
+  --control-period 0.25 --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 --max-step-angle 0.05 >"$tmp/bdot_angle.csv" 2>&1; rc=$?
+check "bdot with --max-step-angle 0.05: exit 0, 5 steps a sample (41 rows), every sample a row" \
+  '[ $rc -eq 0 ] && [ $(($(wc -l <"$tmp/bdot_angle.csv") - 1)) -eq 41 ] && [ "$(cut -d, -f1 "$tmp/bdot_angle.csv" | grep -cE "^(0|0.25|0.5|0.75|1|1.25|1.5|1.75|2)$")" -eq 9 ]'
 printf '%s\n0,0,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw_zero.csv"
 printf '%s\n1,nan,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw_nan.csv"
 printf '%s\n1,0,0,0,0,0.2,600\n' "$wh" >"$tmp/rw_js.csv"
@@ -310,6 +316,9 @@ for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--controller mrp-pd:1,2|--controller: needs --control-period" \
            "--target-rotation 0,0,1 --wheels $tmp/rw3.csv|--target-rotation: only with --controller mrp-pd" \
            "--max-dipole 0.2 $pd|--max-dipole: only with --orbit-radius" \
+           "--max-step-angle 0.1|--max-step-angle: needs --controller" \
+           "--max-step-angle -0.1 $pd|--max-step-angle: must be > 0" \
+           "--max-step-angle 0.1 $pd --rtol 1e-8|--max-step-angle: fixed steps only, not with --rtol" \
            "--orbit-radius 0 $pd|--orbit-radius: must be > 0" \
            "--wheels $tmp/rw3.csv --mgl 1|a control run's scene has wheels" \
            "--wheels $tmp/rw3.csv --rtol 1e-6 --event nutation-max:terminal|--event nutation-max:terminal: not in a control run"; do

@@ -387,6 +387,14 @@ void CommandLine::declare(Config& c) {
         });
   value("--control-period", "T", "the sample period (> 0, at least |--dt|); required with --controller",
         [&k](const std::string& v) { k.period = parse_number("--control-period", v); });
+  value("--max-step-angle", "RAD",
+        "with --controller and --dt: each hold split into the fewest equal steps, none longer than\n"
+        "--dt, that turn the body by at most RAD at the sample's rate (a tumbling body gets more steps\n"
+        "a sample, a slow one one step; docs/control.md)",
+        [&k](const std::string& v) {
+          k.max_angle = parse_number("--max-step-angle", v);
+          if (!(*k.max_angle > 0)) throw invalid_input("--max-step-angle: must be > 0 (rad), got " + v);
+        });
   value("--target-rotation", "R1,R2,R3", "mrp-pd's inertial target as a rotation vector, as --rotation (default 0)",
         [&k](const std::string& v) { k.target = parse_vector("--target-rotation", v); });
   value("--orbit-radius", "M",

@@ -617,7 +617,7 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
       if (++k % c.every == 0) row(x);
     };
     const SampledSummary<double> sum =
-        integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt}, observer);
+        integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt, {}, c.control.max_angle.value_or(0.0)}, observer);
     if (!(s.time == last_row)) row(s);  // the end, always
     return sum.ok() ? 0 : failed(sum.reason());
   }

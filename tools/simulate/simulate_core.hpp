@@ -74,6 +74,7 @@ struct ControlFlags {
   std::optional<double> orbit_radius;          ///< --orbit-radius (m): a magnetic field
   std::optional<double> inclination_deg;       ///< --orbit-inclination (degrees)
   std::optional<double> max_dipole;            ///< --max-dipole (A m^2 per axis)
+  std::optional<double> max_angle;             ///< --max-step-angle (rad): steps that follow the rate [W16]
   /// --controller code: a controller given as code, not as a flag (the Python module's
   /// trompo.control with a callable); the CLI has none to give, and refuses it.
   std::function<trompo::Command<double>(const trompo::Sample<double>&)> code;
@@ -82,7 +83,8 @@ struct ControlFlags {
   std::optional<M3> target_matrix;
   /// Whether the run is a control run (one scene type for all of them, simulate_core.cpp).
   bool on() const {
-    return !wheels_file.empty() || !controller.empty() || period || target || orbit_radius || inclination_deg || max_dipole;
+    return !wheels_file.empty() || !controller.empty() || period || target || orbit_radius || inclination_deg || max_dipole ||
+           max_angle;
   }
 };
 
@@ -376,7 +378,7 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
   // The flag that made this a control run, for the messages.
   std::string by;
   for (const char* f : {"--wheels", "--controller", "--control-period", "--target-rotation", "--orbit-radius",
-                        "--orbit-inclination", "--max-dipole"})
+                        "--orbit-inclination", "--max-dipole", "--max-step-angle"})
     if (by.empty() && flags.count(f)) by = f;
   if (!steps_control_scene(c.scheme))
     throw invalid_input("--scheme " + c.scheme + ": cannot carry reaction wheels, so it runs no " + by +
@@ -393,6 +395,8 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
   if (c.processed) throw invalid_input("--composition blanes-casas-murua-13: not with " + by);
   if (!k.controller.empty() && !k.period) throw invalid_input("--controller: needs --control-period");
   if (k.period && k.controller.empty()) throw invalid_input("--control-period: needs --controller");
+  if (k.max_angle && k.controller.empty()) throw invalid_input("--max-step-angle: needs --controller");
+  if (k.max_angle && c.adaptive.on) throw invalid_input("--max-step-angle: fixed steps only, not with --rtol");
   if (k.period && !(*k.period > 0)) throw invalid_input("--control-period: must be > 0, got " + flags.at("--control-period"));
   if (k.period && c.dt && *k.period < std::abs(*c.dt))
     throw invalid_input("--control-period: " + flags.at("--control-period") + " is shorter than the step --dt " +

@@ -275,7 +275,10 @@ TEST_CASE("ensemble: closed-loop members with wheels, each its single sampled ru
   };
   const double t_end = 60.0, period = 0.1;
   std::vector<State<double>> single(start.size());
-  std::vector<Vec3> pi0(start.size());
+  std::vector<Vec3> pi0(start.size()), pi_single(start.size());
+  std::vector<double> energy_single(start.size());
+  std::vector<Wheels::WheelVector> u_single(start.size());
+  std::vector<std::int64_t> iterations_single(start.size());
   for (std::size_t i = 0; i < start.size(); ++i) {
     Stepper<SimoKappa, Craft> st = stepper;
     MrpPd<double> c = pd;
@@ -283,7 +286,12 @@ TEST_CASE("ensemble: closed-loop members with wheels, each its single sampled ru
     setup(i, st, c);
     pi0[i] = st.scene().spatial_momentum(start[i]);
     single[i] = start[i];
-    REQUIRE(integrate_sampled(st, single[i], t_end, period, c, between).ok());
+    const SampledSummary<double> sum = integrate_sampled(st, single[i], t_end, period, c, between);
+    REQUIRE(sum.ok());
+    iterations_single[i] = sum.iterations;
+    energy_single[i] = st.scene().energy(single[i]);
+    pi_single[i] = st.scene().spatial_momentum(single[i]);
+    u_single[i] = st.scene().effect<Wheels>().torques();
   }
   double worst_pi = 0;
   for (unsigned threads : {1u, 2u}) {
@@ -301,6 +309,12 @@ TEST_CASE("ensemble: closed-loop members with wheels, each its single sampled ru
       const Vec3 pi = members[i].state.rotation.matrix() * (stepper.scene().body().inertia() * members[i].state.omega + h_w);
       CHECK((pi - pi0[i]).norm() <= 1e-14 * pi0[i].norm());  // measured 1.9e-15
       worst_pi = std::max(worst_pi, (pi - pi0[i]).norm() / pi0[i].norm());
+      // The end's energy, momentum, held torques and Newton count: the single run's scene's.
+      CHECK(members[i].energy == energy_single[i]);
+      CHECK(members[i].spatial_momentum == pi_single[i]);
+      CHECK(members[i].wheel_torques == u_single[i]);
+      CHECK(members[i].summary.iterations == iterations_single[i]);
+      CHECK(members[i].summary.iterations >= 600);  // Simo-κ: at least one Newton iteration a step
     }
   }
   std::printf("closed-loop ensemble, 7 members x 600 samples: each its single run bit for bit; max |dpi|/|pi| %.2e\n", worst_pi);

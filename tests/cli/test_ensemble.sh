@@ -77,6 +77,58 @@ check "failing member: t = 0, status names the reason" '[ "$(sed -n 3p "$tmp/fai
 check "the other members finish" '[ "$(sed -n 2p "$tmp/fail.out" | cut -d, -f2,21)" = "2,ok" ] && [ "$(sed -n 4p "$tmp/fail.out" | cut -d, -f2,21)" = "2,ok" ]'
 check "stderr names the member" 'grep -q "1 of 3 member(s) failed.*first: member 1 at t = 0: .*wrong branch" "$tmp/fail.err"'
 
+# Closed loops (the control flags): each member is its own control run from its row (wheels
+# started at its state, its own controller memory), its row the last row of that single run
+# with the wheels' speeds and held torques; 1 and 2 threads write the same bytes; a member's
+# inertia column is the whole spacecraft's; --rtol runs adaptive holds, --max-step-angle
+# fixed steps that follow the rate.
+printf 'gx,gy,gz,Js,speed0,max_torque,max_speed\n1,0,0,0.0796,10.47,0.2,628.3\n0,1,0,0.0796,20.94,0.2,628.3\n0,0,1,0.0796,31.4,0.2,628.3\n' >"$tmp/rw.csv"
+cat >"$tmp/craft.csv" <<'CSV'
+rotation1,rotation2,rotation3,omega1,omega2,omega3,J11,J22,J33
+0.5,0,0,0.001,-0.01,0.03,900,800,600
+0.2,0.3,-0.1,0.01,0,0,900,800,600
+0,0,1,0,0,0.02,700,800,900
+CSV
+ctl="--wheels $tmp/rw.csv --controller mrp-pd:3.5,30 --control-period 0.1 --t-end 30"
+cheader='member,t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations,wheel1,wheel2,wheel3,u1,u2,u3,status'
+for between in "--dt 0.1" "--dt 0.1 --scheme splitting --composition suzuki-5 --max-step-angle 0.001" "--rtol 1e-9 --atol 1e-9 --order 4"; do
+  "$sim" --inertia 900,800,600 $ctl $between --ensemble "$tmp/craft.csv" --threads 2 >"$tmp/c2.csv" 2>"$tmp/c2.err"; rc=$?
+  "$sim" --inertia 900,800,600 $ctl $between --ensemble "$tmp/craft.csv" --threads 1 >"$tmp/c1.csv" 2>/dev/null
+  check "closed loops ($between): exit 0, the header with wheel1..3 and u1..3, every member ok, 1 and 2 threads the same bytes" \
+    '[ $rc -eq 0 ] && [ "$(head -1 "$tmp/c2.csv")" = "$cheader" ] && awk -F, "NR>1 && (\$2 != 30 || \$27 != \"ok\") {bad=1} END{exit bad}" "$tmp/c2.csv" && cmp -s "$tmp/c1.csv" "$tmp/c2.csv"'
+  i=0
+  while IFS=, read -r r1 r2 r3 w1 w2 w3 j1 j2 j3; do
+    "$sim" --inertia "$j1,$j2,$j3" $ctl $between --rotation "$r1,$r2,$r3" --omega "$w1,$w2,$w3" --every 1000000 >"$tmp/csingle.csv" 2>/dev/null
+    check "closed-loop member $i ($between) = last row of its single control run (state, H, pi, wheels, u), bit for bit" \
+      '[ "$(sed -n "$((i + 2))p" "$tmp/c2.csv" | cut -d, -f2-19,21-26)" = "$(tail -1 "$tmp/csingle.csv" | cut -d, -f1-18,20-25)" ]'
+    i=$((i + 1))
+  done < <(grep -v -e '^#' -e '^rotation' "$tmp/craft.csv")
+done
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,0.5,0.5,0.5\n0.1,0.2,0.3,0.2,-0.4,0.1\n' >"$tmp/tumble.csv"
+"$sim" --inertia 0.035,0.034,0.01 --scheme splitting --dt 0.25 --t-end 60 --controller bdot:1e5 --control-period 0.25 \
+  --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 --max-step-angle 0.05 --ensemble "$tmp/tumble.csv" >"$tmp/bd.csv" 2>&1; rc=$?
+"$sim" --inertia 0.035,0.034,0.01 --scheme splitting --dt 0.25 --t-end 60 --controller bdot:1e5 --control-period 0.25 \
+  --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 --max-step-angle 0.05 --omega 0.5,0.5,0.5 --every 1000000 >"$tmp/bds.csv" 2>&1
+check "B-dot members with --max-step-angle: exit 0, no wheel columns, member 0 its single run" \
+  '[ $rc -eq 0 ] && [ "$(head -1 "$tmp/bd.csv")" = "$header" ] && [ "$(sed -n 2p "$tmp/bd.csv" | cut -d, -f2-19)" = "$(tail -1 "$tmp/bds.csv" | cut -d, -f1-18)" ]'
+# A member whose command comes back non-finite stops at its sample (its row says why); the others finish.
+# (Members 0 and 2 at rest at the target command 0; member 1's rate times 1e308 overflows.)
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,0,0,0\n0,0,0,10,0,0\n0,0,0,0,0,0\n' >"$tmp/cbad.csv"
+"$sim" --inertia 900,800,600 --wheels "$tmp/rw.csv" --controller mrp-pd:1e308,1e308 --control-period 0.1 --dt 0.1 --t-end 1 \
+  --ensemble "$tmp/cbad.csv" >"$tmp/cbad.out" 2>"$tmp/cbad.err"; rc=$?
+check "closed loops, a refused command: exit 3, its row at t = 0 names the command, the others finish" \
+  '[ $rc -eq 3 ] && sed -n 3p "$tmp/cbad.out" | grep -q "^1,0,.*non-finite command wheel_torques at t = 0" && [ "$(sed -n 2p "$tmp/cbad.out" | cut -d, -f2,27)" = "1,ok" ] && [ "$(sed -n 4p "$tmp/cbad.out" | cut -d, -f2,27)" = "1,ok" ] && grep -q "1 of 3 member(s) failed" "$tmp/cbad.err"'
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3,mgl\n0,0,0,0,0,0.01,1\n' >"$tmp/cmgl.csv"
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3,J11,J22,J33\n0,0,0,0,0,0.01,0.05,0.05,0.05\n' >"$tmp/chub.csv"
+for bad in "--ensemble $tmp/cmgl.csv|column mgl: a control run's scene has no gravity" \
+           "--ensemble $tmp/chub.csv|chub.csv:2: wheels: J - sum Js g g^T (the hub" \
+           "--ensemble $tmp/craft.csv --rotation 0,0,1|drop --rotation"; do
+  flags=${bad%%|*}; want=${bad#*|}
+  "$sim" --inertia 900,800,600 --wheels "$tmp/rw.csv" --controller mrp-pd:1,5 --control-period 0.1 --dt 0.1 --t-end 1 $flags >"$tmp/bad.out" 2>"$tmp/bad.err"; rc=$?
+  check "closed loops: exit 2, one line naming the reason: $want" \
+    '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.out" ] && [ "$(wc -l <"$tmp/bad.err")" -eq 1 ] && grep -qF -- "$want" "$tmp/bad.err"'
+done
+
 # Bad files and contradicting flags: exit 2, one line, nothing on stdout.
 printf 'rotation1,rotation2,rotation3,omega1,omega2\n' >"$tmp/b1.csv"
 printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n1,2,x,4,5,6\n' >"$tmp/b2.csv"

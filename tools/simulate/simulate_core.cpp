@@ -465,17 +465,22 @@ int dispatch_scheme(const Config& c, const Scene& scene, const trompo::State<dou
 /// wheels [W1], the wheels, a held body torque at zero, and magnetorquers in the field of
 /// --orbit-radius (without it a placeholder orbit and the dipole at zero: no torque). Throws
 /// invalid_input naming the field (the hub's inertia, the orbit).
-inline ControlScene control_scene(const Config& c) {
+inline ControlScene control_scene(const Config& c, const M3& inertia) {
   using namespace trompo;
   const ControlFlags& k = c.control;
   ReactionWheels<double> rw;
   for (const auto& w : k.wheels) rw.add_wheel(w);
-  const RigidBody<double> hub = rw.hub_body(c.inertia);
+  const RigidBody<double> hub = rw.hub_body(inertia);
   constexpr double pi = 3.14159265358979323846;
   const CircularOrbit<double> orbit(k.orbit_radius.value_or(7000e3), k.inclination_deg.value_or(0.0) * pi / 180);
   const Magnetorquer<double> mtq(DipoleField<double>(orbit),
                                  V3::Constant(k.max_dipole.value_or(std::numeric_limits<double>::infinity())));
   return ControlScene(hub, rw, held_body_torque<double>(), mtq);
+}
+inline ControlScene control_scene(const Config& c) { return control_scene(c, c.inertia); }
+/// Member i's control scene: its own inertia (the whole spacecraft's) or --inertia.
+inline ControlScene member_control_scene(const Config& c, const EnsembleInput& in, std::size_t i) {
+  return control_scene(c, in.inertia.empty() ? c.inertia : in.inertia[i]);
 }
 
 /// --controller as one copyable type (one instantiation of the sampled driver per stepper):
@@ -672,8 +677,62 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
   return 0;
 }
 
+template <class Scheme, class SceneT>
+trompo::Stepper<Scheme, SceneT> with_scene(const Config&, const trompo::Stepper<Scheme, SceneT>& st, SceneT scene);
+template <class Scheme, class SceneT>
+trompo::ComposedStepper<Scheme, SceneT> with_scene(const Config&, const trompo::ComposedStepper<Scheme, SceneT>& st,
+                                                   SceneT scene);
+
+/// A closed-loop ensemble (--ensemble FILE with the control flags): member i is the control
+/// run of its row by trompo::integrate_sampled_ensemble, on its own copies of the stepper
+/// (its wheels started at its state; its own scene when the file gives its inertia) and of
+/// the controller, between the samples fixed steps of --dt (--max-step-angle) or, with
+/// --rtol, adaptive steps over each hold. Each member is its single run bit for bit.
+template <class StepperT>
+int run_control_with(StepperT stepper, const Config& c, trompo::State<double>, EnsembleRun& e) {
+  using namespace trompo;
+  const EnsembleInput& in = e.input;
+  const std::size_t n = in.size();
+  std::vector<State<double>> starts(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    starts[i].rotation = in.rotation[i];
+    starts[i].omega = in.omega[i];
+  }
+  const CliController ctrl = make_controller(c);
+  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(c.dt.value_or(0.0))));
+  EnsembleOptions options{.threads = c.threads};
+  options.progress = e.progress;
+  auto setup = [&](std::size_t i, StepperT& st, CliController&) {
+    if (in.inertia.empty()) return;
+    st = with_scene(c, st, member_control_scene(c, in, i));
+    st.scene().template effect<ReactionWheels<double>>().start(starts[i].time, starts[i].omega);
+  };
+  if (c.adaptive.on) {
+    if (c.adaptive.rtol_asked) e.messages.push_back(rtol_warning(c));
+    const AdaptiveSteps<double> between{adaptive_options(c)};
+    e.sampled = integrate_sampled_ensemble(stepper, starts, *c.t_end, period, ctrl, between, options, setup);
+  } else {
+    const FixedSteps<double> between{*c.dt, {}, c.control.max_angle.value_or(0.0)};
+    e.sampled = integrate_sampled_ensemble(stepper, starts, *c.t_end, period, ctrl, between, options, setup);
+  }
+  e.wheels = stepper.scene().template effect<ReactionWheels<double>>().size();
+  const V3 up = c.up.normalized();
+  e.states.resize(n);
+  e.energy.resize(n);
+  e.momentum_map.resize(n);
+  e.spatial_momentum.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    e.states[i] = e.sampled[i].state;
+    e.energy[i] = e.sampled[i].energy;
+    e.spatial_momentum[i] = e.sampled[i].spatial_momentum;
+    e.momentum_map[i] = up.dot(e.spatial_momentum[i]);
+  }
+  return e.failed() ? 3 : 0;
+}
+
 /// A control run: --scheme (plain, or composed by --order/--composition) on ControlScene.
-inline int run_control(const Config& c, RowSink& out) {
+template <class Out>
+int run_control(const Config& c, Out& out) {
   using namespace trompo;
   const ControlScene scene = control_scene(c);
   State<double> s0;
@@ -901,8 +960,8 @@ int simulate_any(const Config& c, Out& out) {
   s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
   s0.omega = c.omega;
   if (c.scheme == "exact") return run_exact(c, body, s0, out);
+  if (c.control.on()) return run_control(c, out);  // control in the loop (one run or an ensemble of them)
   if constexpr (std::is_same_v<Out, RowSink>) {
-    if (c.control.on()) return run_control(c, out);  // control in the loop
     if (c.code_torques()) return run_code_torque(c, body, s0, out);  // trompo.TorqueLaw
   }
   // The scene of with_scene_of; an ensemble with a per-member mgl is a heavy top even
@@ -952,6 +1011,11 @@ void validate_member(const Config& c, const EnsembleInput& in, std::size_t i) {
   s.rotation = in.rotation[i];
   s.omega = in.omega[i];
   s.validate();
+  if (c.control.on()) {  // a closed loop: the control scene with the member's inertia
+    if (!in.mgl.empty()) throw invalid_input("column mgl: a control run's scene has no gravity");
+    check_initial_state(member_control_scene(c, in, i), s, "rotation1,2,3", "omega1,2,3");
+    return;
+  }
   const RigidBody<double> body = member_body(c, in, i);
   const double mgl = in.mgl.empty() ? c.mgl : in.mgl[i];
   const UniformGravity<double> gravity(mgl, c.com, c.up);
@@ -1157,7 +1221,10 @@ EnsembleInput read_ensemble(const Config& c) {
 /// The ensemble's CSV: one row per member, its final (or last good) state in the columns
 /// of kHeader (iterations: the member's total), between its index and its status.
 void write_ensemble(std::FILE* out, const EnsembleRun& e) {
-  std::fputs("member,t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations,status\n", out);
+  std::fputs("member,t,R00,R01,R02,R10,R11,R12,R20,R21,R22,W1,W2,W3,H,mu,pi1,pi2,pi3,iterations", out);
+  for (int j = 1; j <= e.wheels; ++j) std::fprintf(out, ",wheel%d", j);
+  for (int j = 1; j <= e.wheels; ++j) std::fprintf(out, ",u%d", j);
+  std::fputs(",status\n", out);
   for (std::size_t i = 0; i < e.states.size(); ++i) {
     const auto& s = e.states[i];
     const M3 R = s.rotation.matrix();
@@ -1168,6 +1235,8 @@ void write_ensemble(std::FILE* out, const EnsembleRun& e) {
     p = put_state_columns(p, s.time, R, s.omega, e.energy[i], e.momentum_map[i], pi, e.iterations(i));
     *p++ = ',';
     std::fwrite(line, 1, static_cast<std::size_t>(p - line), out);
+    for (int j = 0; j < e.wheels; ++j) std::fprintf(out, "%.17g,", e.sampled[i].wheel_speeds(j));  // [W1] speeds
+    for (int j = 0; j < e.wheels; ++j) std::fprintf(out, "%.17g,", e.sampled[i].wheel_torques(j));  // held u
     std::fprintf(out, "%s\n", e.reason(i).c_str());
   }
 }

@@ -14,7 +14,8 @@
 //
 // Ensembles (--ensemble FILE, trompo.ensemble): the same dispatch with an EnsembleRun in
 // place of the sink; simulate() then integrates every member with trompo::integrate_ensemble
-// (include/trompo/drivers/ensemble.hpp) and keeps each member's final state.
+// (include/trompo/drivers/ensemble.hpp) and keeps each member's final state; with the control
+// flags every member is a closed loop of its own (trompo::integrate_sampled_ensemble).
 //
 // Not part of the library (include/trompo): an application of it.
 #include <cerrno>
@@ -43,6 +44,7 @@
 #endif
 
 #include "trompo/drivers/adaptive.hpp"
+#include "trompo/drivers/ensemble.hpp"
 #include "trompo/drivers/integrate.hpp"
 #include "trompo/drivers/sampled.hpp"
 #include "trompo/model/cases.hpp"
@@ -386,7 +388,8 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
   if (c.mgl != 0 || c.have_effects || c.gravity_gradient)
     throw invalid_input(by + ": a control run's scene has wheels, a held torque and magnetorquers only (no --mgl, "
                              "--damping, --torque, --space-torque, --rotor or --gravity-gradient)");
-  if (!c.ensemble.empty()) throw invalid_input(by + ": not with --ensemble");
+  if (!c.ensemble.empty() && k.controller == "code")
+    throw invalid_input("--controller code: not in an ensemble (a controller given as code runs one loop at a time)");
   // --rtol: adaptive steps between the samples, each hold a new run (docs/control.md); a
   // terminal event would end a hold, not the run: refused.
   if (c.adaptive.on)
@@ -633,18 +636,26 @@ struct EnsembleRun {
   std::vector<std::vector<trompo::State<double>>> at_times;   ///< each member's states at --t-eval
   /// Each member's events: per --event, the states where it occurred.
   std::vector<std::vector<std::vector<trompo::State<double>>>> events;
+  // ---- closed-loop members (the control flags) ----
+  std::vector<trompo::SampledMember<double>> sampled;         ///< each member's end: wheels, summary
+  int wheels = 0;                                             ///< the wheels of every member (columns)
   std::vector<std::string> messages;                          ///< warnings (an rtol raised to its floor)
   /// Called as progress(done, n) after each chunk of members (EnsembleOptions::progress).
   std::function<void(std::size_t, std::size_t)> progress;
   /// Whether member i reached t_end.
-  bool ok(std::size_t i) const { return adaptive.empty() ? summaries[i].ok() : adaptive[i].ok(); }
+  bool ok(std::size_t i) const {
+    if (!sampled.empty()) return sampled[i].summary.ok();
+    return adaptive.empty() ? summaries[i].ok() : adaptive[i].ok();
+  }
   /// Why member i stopped ("ok" when it did not).
   std::string reason(std::size_t i) const {
+    if (!sampled.empty()) return sampled[i].summary.reason();
     if (adaptive.empty()) return summaries[i].reason();
     return adaptive[i].ok() ? "ok" : adaptive[i].message();
   }
   /// Newton iterations of member i.
   long long iterations(std::size_t i) const {
+    if (!sampled.empty()) return static_cast<long long>(sampled[i].summary.iterations);
     return static_cast<long long>(adaptive.empty() ? summaries[i].iterations : adaptive[i].iterations);
   }
   std::size_t failed() const {

@@ -232,12 +232,16 @@ std::vector<AdaptiveRun<typename StepperT::Scalar>> solve_ensemble(
   return runs;
 }
 
-/// One closed-loop member's end: its state, its wheels' speeds relative to the body (empty
-/// without wheels), and what integrate_sampled did.
+/// One closed-loop member's end: its state, its wheels' speeds relative to the body and the
+/// motor torques held at the end (empty without wheels), its energy and total momentum on its
+/// own scene (wheels included, [W3]), and what integrate_sampled did.
 template <class Scalar>
 struct SampledMember {
   State<Scalar> state;                                          ///< at summary.time
   typename ReactionWheels<Scalar>::WheelVector wheel_speeds;    ///< Ω_i at the end (rad/s)
+  typename ReactionWheels<Scalar>::WheelVector wheel_torques;   ///< u_i held at the end (N m)
+  Scalar energy = Scalar(0);                                    ///< Scene::energy at the end
+  Eigen::Matrix<Scalar, 3, 1> spatial_momentum = Eigen::Matrix<Scalar, 3, 1>::Zero();  ///< π at the end
   SampledSummary<Scalar> summary;                               ///< samples, steps, why it stopped
 };
 
@@ -277,7 +281,13 @@ std::vector<SampledMember<typename StepperT::Scalar>> integrate_sampled_ensemble
     SampledMember<Scalar>& m = members[i];
     m.summary = integrate_sampled(own, s, t_end, period, control, between);
     m.state = s;
-    if constexpr (Scene::has_wheels) m.wheel_speeds = own.scene().template effect<ReactionWheels<Scalar>>().speeds(s.time, s.omega);
+    if constexpr (Scene::has_wheels) {
+      const auto& rw = own.scene().template effect<ReactionWheels<Scalar>>();
+      m.wheel_speeds = rw.speeds(s.time, s.omega);
+      m.wheel_torques = rw.torques();
+    }
+    m.energy = own.scene().energy(s);
+    m.spatial_momentum = own.scene().spatial_momentum(s);
   });
   return members;
 }

@@ -64,6 +64,7 @@ struct SampledSummary {
   std::int64_t samples = 0;     ///< controller calls whose command was held
   std::int64_t steps = 0;       ///< accepted steps (whole grid intervals or adaptive steps)
   std::int64_t failures = 0;    ///< failed step attempts (recovered or not)
+  std::int64_t iterations = 0;  ///< Newton iterations of all steps and attempts
   StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
   std::string command_error;    ///< why a command was refused (empty: none)
   bool too_many_steps = false;  ///< an adaptive hold reached AdaptiveOptions::max_steps before its sample
@@ -112,6 +113,7 @@ struct FixedSteps {
     const IntegrationSummary<Scalar> s = integrate(stepper, traj, t_next, step, std::forward<Obs>(obs), options);
     sum.steps += s.steps + s.substeps;
     sum.failures += s.failures;
+    sum.iterations += s.iterations;
     sum.status = s.status;
     return s.ok();
   }
@@ -134,6 +136,7 @@ struct AdaptiveSteps {
     }
     sum.steps += s.accepted;
     sum.failures += s.failures;
+    sum.iterations += s.iterations;
     sum.status = s.failure;
     // A run stopped by max_steps fails with no step failure (StepStatus::ok): the summary
     // says so, rather than ok() at a time short of t_end (found by the fuzzer).

@@ -261,10 +261,49 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
 }
 
 
+/// 3×3 row-major from an array already checked to be (3, 3).
+M3 matrix_of(const Array& a) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data()); }
+
+/// The wheels of a trompo.Spacecraft into the Config: `wheels` (N, 5) rows axis(3), Js, speed0,
+/// `limits` (N, 2) max_torque, max_speed; each checked as the library checks it (naming the
+/// wheel), then the control flags again (mrp-pd needs axes spanning 3-D).
+void set_wheels(Config& c, const std::map<std::string, std::string>& flags, const Array& wheels, const Array& limits) {
+  if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 && limits.shape(1) == 2 &&
+        limits.shape(0) == wheels.shape(0)))
+    throw py::value_error("wheels: expected (N, 5) and (N, 2) arrays");
+  for (py::ssize_t i = 0; i < wheels.shape(0); ++i) {
+    const double* w = wheels.data() + 5 * i;
+    trompo::Wheel<double> wheel;
+    wheel.axis = V3(w[0], w[1], w[2]);
+    wheel.inertia = w[3];
+    wheel.speed0 = w[4];
+    wheel.max_torque = limits.data()[2 * i];
+    wheel.max_speed = limits.data()[2 * i + 1];
+    trompo::ReactionWheels<double>().add_wheel(wheel);  // its checks, naming the wheel
+    c.control.wheels.push_back(wheel);
+  }
+  if (!c.control.wheels.empty()) c.control.wheels_file = "(trompo.Spacecraft)";
+  check_control(c, flags);
+}
+
 /// The ensemble: members from arrays, final states out as arrays.
 py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const Array& rotation, const Array& omega,
-                        const std::optional<Array>& mgl, const std::optional<Array>& inertia, const py::object& progress) {
-  const Config c = config_of(flags);
+                        const std::optional<Array>& mgl, const std::optional<Array>& inertia, const py::object& progress,
+                        const std::optional<Array>& wheels, const std::optional<Array>& limits,
+                        const std::optional<Array>& target) {
+  Config c = config_of(flags);
+  if (wheels) {  // a closed-loop ensemble (trompo.control_ensemble)
+    if (!limits) throw py::value_error("limits: needed with wheels");
+    try {
+      set_wheels(c, flags, *wheels, *limits);
+    } catch (const invalid_input& e) {
+      throw py::value_error(e.what());
+    }
+  }
+  if (target) {
+    if (!(target->ndim() == 2 && target->shape(0) == 3 && target->shape(1) == 3)) throw py::value_error("target: expected (3, 3)");
+    c.control.target_matrix = matrix_of(*target);
+  }
   auto shape = [](const Array& a) {
     std::string s = "(";
     for (py::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
@@ -379,6 +418,21 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
   py::list messages;
   for (const auto& m : run.messages) messages.append(m);
   d["messages"] = messages;
+  if (!run.sampled.empty()) {  // closed loops: each member's wheels at the end and its samples
+    const auto N = static_cast<py::ssize_t>(n), W = static_cast<py::ssize_t>(run.wheels);
+    std::vector<double> speeds(n * static_cast<std::size_t>(run.wheels)), torques(speeds.size());
+    std::vector<std::int64_t> samples(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int j = 0; j < run.wheels; ++j) {
+        speeds[i * static_cast<std::size_t>(run.wheels) + static_cast<std::size_t>(j)] = run.sampled[i].wheel_speeds(j);
+        torques[i * static_cast<std::size_t>(run.wheels) + static_cast<std::size_t>(j)] = run.sampled[i].wheel_torques(j);
+      }
+      samples[i] = run.sampled[i].summary.samples;
+    }
+    d["wheel_speeds"] = to_array(std::move(speeds), {N, W});
+    d["u"] = to_array(std::move(torques), {N, W});
+    d["samples"] = to_array(std::move(samples), {N});
+  }
   if (run.adaptive.empty()) return d;
   // ---- adaptive members (--rtol): the driver's counts, the states at t_eval, the events ----
   const auto N = static_cast<py::ssize_t>(n);
@@ -447,8 +501,6 @@ class ControlSink final : public ArraySink {
 /// the driver, whose rows so far stay in the sink.
 struct ControllerRaised {};
 
-/// 3×3 row-major from an array already checked to be (3, 3).
-M3 matrix_of(const Array& a) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data()); }
 
 /// A command's entry from Python: a 1-D array of `want` numbers (-1: up to max_wheels).
 template <class Vec>
@@ -500,9 +552,6 @@ trompo::Command<double> command_of(const py::handle& out, bool field) {
 py::tuple control_run(const std::map<std::string, std::string>& flags, const Array& wheels, const Array& limits,
                       const Array& rotation, const Array& omega, const std::optional<Array>& target,
                       const py::object& controller, const py::object& memory, const py::object& events) {
-  if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 && limits.shape(1) == 2 &&
-        limits.shape(0) == wheels.shape(0)))
-    throw py::value_error("wheels: expected (N, 5) and (N, 2) arrays");
   if (!(rotation.ndim() == 2 && rotation.shape(0) == 3 && rotation.shape(1) == 3)) throw py::value_error("rotation: expected (3, 3)");
   if (!(omega.ndim() == 1 && omega.shape(0) == 3)) throw py::value_error("omega: expected (3,)");
   if (target && !(target->ndim() == 2 && target->shape(0) == 3 && target->shape(1) == 3))
@@ -512,19 +561,7 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
   Config c;
   try {
     c = parse_flags(flags);
-    for (py::ssize_t i = 0; i < wheels.shape(0); ++i) {
-      const double* w = wheels.data() + 5 * i;
-      trompo::Wheel<double> wheel;
-      wheel.axis = V3(w[0], w[1], w[2]);
-      wheel.inertia = w[3];
-      wheel.speed0 = w[4];
-      wheel.max_torque = limits.data()[2 * i];
-      wheel.max_speed = limits.data()[2 * i + 1];
-      trompo::ReactionWheels<double>().add_wheel(wheel);  // its checks, naming the wheel
-      c.control.wheels.push_back(wheel);
-    }
-    if (!c.control.wheels.empty()) c.control.wheels_file = "(trompo.Spacecraft)";
-    check_control(c, flags);  // again, with the wheels (mrp-pd needs axes spanning 3-D)
+    set_wheels(c, flags, wheels, limits);
     if (!events.is_none()) {  // Python event functions (adaptive steps only), as simulate_flags'
       if (!c.adaptive.on) throw py::value_error("events: only with adaptive steps (give rtol)");
       for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
@@ -613,7 +650,9 @@ PYBIND11_MODULE(_trompo, m) {
         "(body, body jacobian, space, space jacobian); returns (status, rows, messages).");
   m.def("ensemble_flags", &ensemble_flags, py::arg("flags"), py::arg("rotation"), py::arg("omega"),
         py::arg("mgl") = py::none(), py::arg("inertia") = py::none(), py::arg("progress") = py::none(),
-        "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays.");
+        py::arg("wheels") = py::none(), py::arg("limits") = py::none(), py::arg("target") = py::none(),
+        "Integrates every member (rows of rotation/omega) with trompo-simulate's flags; final states as arrays. "
+        "With wheels (N, 5), limits (N, 2) and an mrp-pd target (3, 3): closed loops (trompo.control_ensemble).");
   m.def("control_run", &control_run, py::arg("flags"), py::arg("wheels"), py::arg("limits"), py::arg("rotation"),
         py::arg("omega"), py::arg("target") = py::none(), py::arg("controller") = py::none(),
         py::arg("memory") = py::none(), py::arg("events") = py::none(),

@@ -356,3 +356,42 @@ def test_adaptive_steps_between_the_samples():
         trompo.control(sc, s0, 1.0, controller=trompo.MrpPd(K=3.5, P=30), period=0.1, dt=0.05, t_eval=[0.5])
     with pytest.raises(ValueError, match="^dt: required"):
         trompo.control(sc, s0, 1.0, controller=trompo.MrpPd(K=3.5, P=30), period=0.1)
+
+
+def test_control_ensemble_members_are_their_single_runs():
+    """trompo.control_ensemble: each member the last row of its own trompo.control run, bit for
+    bit (state, H, pi, wheel speeds, held torques), on 1 and 2 threads; per-member inertia;
+    B-dot members with max_step_angle; a Python callable is refused."""
+    sc, _ = basilisk()
+    om = np.array([[0.001, -0.01, 0.03], [0.01, 0.0, 0.0], [0.0, 0.0, 0.02]])
+    starts = [trompo.initial_state(rotvec=r, omega=w) for r, w in zip([(0.1, 0.2, -0.3), (0.3, -0.1, 0.2), (0, 0, 1)], om)]
+    rot = np.array([s.R for s in starts])  # (N, 3, 3): the members start from the single runs' matrices
+    J = np.array([[900, 800, 600], [900, 800, 600], [700, 800, 900]], dtype=float)
+    pd = trompo.MrpPd(3.5, 30, target=rotation_of_mrp((0.05, 0.0, 0.1)))
+    kw = dict(dt=0.1, period=0.1, controller=pd)
+    e1 = trompo.control_ensemble(sc, rot, om, 20.0, inertia=J, threads=1, **kw)
+    e2 = trompo.control_ensemble(sc, rot, om, 20.0, inertia=J, threads=2, **kw)
+    assert e1["ok"].all() and list(e1["status"]) == ["ok"] * 3 and (e1["samples"] == 200).all()
+    for key in ("t", "R", "W", "H", "pi", "wheel_speeds", "u", "iterations"):
+        assert np.array_equal(e1[key], e2[key]), key
+    for i in range(3):
+        craft = trompo.Spacecraft(J[i], wheels=sc.wheels)
+        single = trompo.control(craft, starts[i], 20.0, every=10**6, **kw)
+        assert np.array_equal(e1["R"][i], single.R[-1]) and np.array_equal(e1["W"][i], single.W[-1])
+        assert e1["H"][i] == single.H[-1] and np.array_equal(e1["pi"][i], single.pi[-1])
+        assert np.array_equal(e1["wheel_speeds"][i], single.wheel_speeds[-1])
+        assert np.array_equal(e1["u"][i], single.u[-1])
+    assert not np.array_equal(e1["R"][0], e1["R"][1])  # the members differ
+    mag = trompo.Spacecraft([0.035, 0.034, 0.01], orbit=trompo.Orbit(6771e3, math.radians(51.6)), max_dipole=0.2)
+    b = trompo.control_ensemble(mag, np.array([np.eye(3)] * 2), [[0.5, 0.5, 0.5], [0.2, -0.4, 0.1]], 30.0, dt=0.25, period=0.25,
+                                controller=trompo.BDot(1e5), scheme="splitting", max_step_angle=0.05)
+    single = trompo.control(mag, trompo.initial_state(rotvec=(0, 0, 0), omega=(0.5, 0.5, 0.5)), 30.0, dt=0.25,
+                            period=0.25, controller=trompo.BDot(1e5), scheme="splitting", max_step_angle=0.05,
+                            every=10**6)
+    assert b["ok"].all() and b["wheel_speeds"].shape == (2, 0)
+    assert np.array_equal(b["R"][0], single.R[-1]) and np.array_equal(b["W"][0], single.W[-1])
+    with pytest.raises(ValueError, match="controller: a closed-loop ensemble takes trompo.MrpPd or trompo.BDot"):
+        trompo.control_ensemble(sc, rot, om, 1.0, dt=0.1, period=0.1, controller=mrp_pd(1, 5))
+    with pytest.raises(ValueError, match="member 2: .*hub"):
+        trompo.control_ensemble(sc, rot, om, 1.0, dt=0.1, period=0.1, controller=pd,
+                                inertia=[[900, 800, 600], [900, 800, 600], [0.05, 0.05, 0.05]])

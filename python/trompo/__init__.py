@@ -38,7 +38,7 @@ from .scene import _array, _finite, _inertia, _rotation_matrix, _text, state_of_
 
 __all__ = ["simulate", "solve_ivp", "ensemble", "StepFailed", "Recovered", "COLUMNS", "__version__",
            "RigidBody", "Gravity", "Damping", "BodyTorque", "SpaceTorque", "Rotor", "GravityGradient", "TorqueLaw",
-           "Scene", "control", "Wheel", "Orbit", "Spacecraft", "State", "initial_state", "MrpPd", "BDot", "ControlResult",
+           "Scene", "control", "control_ensemble", "Wheel", "Orbit", "Spacecraft", "State", "initial_state", "MrpPd", "BDot", "ControlResult",
            "ControlError", "CommandError", "mrp"]
 
 #: The keys of simulate()'s dict, in the CSV header's order (R is (n,3,3), W and pi (n,3)).
@@ -641,6 +641,51 @@ class CommandError(ControlError, ValueError):
     the message names the command and t_k. Also a ValueError."""
 
 
+def _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle):
+    """The engine's flags of a control run (or of each member of a closed-loop ensemble), the
+    MrpPd target (or None) and a Python controller (or None)."""
+    flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--t-end": repr(t_end),
+             "--scheme": str(scheme), "--control-period": repr(period)}
+    if dt is not None:
+        flags["--dt"] = repr(dt)
+    if max_step_angle is not None:
+        flags["--max-step-angle"] = _number("max_step_angle", max_step_angle)
+    if order != 2:
+        flags["--order"] = str(int(order))
+    if spacecraft.orbit is not None:
+        flags["--orbit-radius"] = repr(spacecraft.orbit.radius)
+        flags["--orbit-inclination"] = repr(math.degrees(spacecraft.orbit.inclination))
+        if math.isfinite(spacecraft.max_dipole):
+            flags["--max-dipole"] = repr(spacecraft.max_dipole)
+    target, fn = None, None
+    if isinstance(controller, MrpPd):
+        if spacecraft.wheels:
+            G = np.array([w.axis for w in spacecraft.wheels]).T
+            if np.linalg.matrix_rank(G) < 3:
+                raise ValueError("controller: MrpPd needs wheel axes that span 3-D (or no wheels: a body torque)")
+        flags["--controller"] = f"mrp-pd:{controller.K!r},{controller.P!r}"
+        target = controller.target
+    elif isinstance(controller, BDot):
+        if spacecraft.orbit is None:
+            raise ValueError("controller: BDot needs spacecraft.orbit (the magnetic field)")
+        flags["--controller"] = f"bdot:{controller.k!r}"
+    elif callable(controller):
+        flags["--controller"] = "code"
+        fn = controller
+    else:
+        raise ValueError(f"controller: expected trompo.MrpPd, trompo.BDot or a callable "
+                         f"f(t, R, W, wheel_speeds, memory), got {controller!r}")
+    return flags, target, fn
+
+
+def _wheel_arrays(spacecraft):
+    """The wheels as the engine takes them: (N, 5) axis, Js, speed0 and (N, 2) limits."""
+    n = len(spacecraft.wheels)
+    wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
+    limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
+    return wheels, limits
+
+
 def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6, t_eval=None, events=None,
             dense_output=False, scheme="simo-kappa", order=2, every=1, max_step_angle=None):
     """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
@@ -675,12 +720,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         raise ValueError(f"every: must be a positive integer, got {every!r}")
     if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
         raise ValueError(f"order: must be an integer, got {order!r}")
-    flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--t-end": repr(t_end),
-             "--scheme": str(scheme), "--control-period": repr(period)}
-    if dt is not None:
-        flags["--dt"] = repr(dt)
-    if max_step_angle is not None:
-        flags["--max-step-angle"] = _number("max_step_angle", max_step_angle)
+    flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle)
+    memory = {} if fn is not None else None
     if t_eval is None:
         flags["--every"] = str(int(every))
     names, code_events = [], []
@@ -692,34 +733,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         names, items, code_events = _event_list("control", events, 0.0)
         if items:
             flags["--event"] = ";".join(items)
-    if order != 2:
-        flags["--order"] = str(int(order))
-    if spacecraft.orbit is not None:
-        flags["--orbit-radius"] = repr(spacecraft.orbit.radius)
-        flags["--orbit-inclination"] = repr(math.degrees(spacecraft.orbit.inclination))
-        if math.isfinite(spacecraft.max_dipole):
-            flags["--max-dipole"] = repr(spacecraft.max_dipole)
-    target, fn, memory = None, None, None
-    if isinstance(controller, MrpPd):
-        if spacecraft.wheels:
-            G = np.array([w.axis for w in spacecraft.wheels]).T
-            if np.linalg.matrix_rank(G) < 3:
-                raise ValueError("controller: MrpPd needs wheel axes that span 3-D (or no wheels: a body torque)")
-        flags["--controller"] = f"mrp-pd:{controller.K!r},{controller.P!r}"
-        target = controller.target
-    elif isinstance(controller, BDot):
-        if spacecraft.orbit is None:
-            raise ValueError("controller: BDot needs spacecraft.orbit (the magnetic field)")
-        flags["--controller"] = f"bdot:{controller.k!r}"
-    elif callable(controller):
-        flags["--controller"] = "code"
-        fn, memory = controller, {}
-    else:
-        raise ValueError(f"controller: expected trompo.MrpPd, trompo.BDot or a callable "
-                         f"f(t, R, W, wheel_speeds, memory), got {controller!r}")
-    n = len(spacecraft.wheels)
-    wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
-    limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
+    wheels, limits = _wheel_arrays(spacecraft)
+
     def run(f, memory=memory):
         return _control_run(f, wheels, limits, state.R, state.omega, target, fn, memory, code_events or None)
     try:
@@ -753,4 +768,57 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
             raise CommandError(m.group(2), res, float(m.group(1)))
         raise StepFailed(res["message"], rows)
     return res
+
+
+def control_ensemble(spacecraft, rotation, omega, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6,
+                     scheme="simo-kappa", order=2, max_step_angle=None, inertia=None, threads=0, progress=False):
+    """N closed loops at once, across ``threads`` cores (0: all): member i is ``control`` of
+    ``spacecraft`` from ``rotation[i]`` ((N,3) rotation vectors or (N,3,3) matrices) and
+    ``omega[i]`` (N,3), each with its own wheels (started at its own rates) and its own
+    controller memory; ``inertia`` (N,3), (N,6) or (N,3,3) the whole spacecraft's per member.
+    The controller is a built-in (MrpPd, BDot): a Python callable would take the interpreter's
+    lock at every sample of every member. Returns a dict of arrays, one entry per member, each
+    bit-identical to the last row of its single ``control`` run: ``t``, ``R``, ``W``, ``H``,
+    ``mu``, ``pi``, ``wheel_speeds`` (N, n_w), ``u`` (N, n_w) the torques held at the end,
+    ``iterations``, ``ok``, ``status``. docs/python.md, "Closed-loop ensembles".
+    """
+    if not isinstance(spacecraft, Spacecraft):
+        raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
+    if not isinstance(controller, (MrpPd, BDot)):
+        raise ValueError(f"controller: a closed-loop ensemble takes trompo.MrpPd or trompo.BDot (a Python callable "
+                         f"would serialise the members on the interpreter's lock), got {controller!r}")
+    t_end = _finite("t_end", t_end, positive=True)
+    if dt is None and rtol is None:
+        raise ValueError("dt: required (or give rtol for adaptive steps)")
+    if dt is not None:
+        dt = _finite("dt", dt, positive=True)
+    period = _finite("period", period, positive=True)
+    if dt is not None and period < dt:
+        raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
+    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
+        raise ValueError(f"order: must be an integer, got {order!r}")
+    flags, target, _ = _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle)
+    if rtol is not None:
+        flags["--rtol"] = _number("rtol", rtol)
+        flags["--atol"] = _number("atol", atol)
+    flags["--threads"] = _number("threads", threads)
+    flags["--ensemble"] = "(arrays)"
+    wheels, limits = _wheel_arrays(spacecraft)
+    report = None
+    if progress:
+        report = progress if callable(progress) else (lambda k, n: print(f"control_ensemble: {k}/{n} members",
+                                                                         file=sys.stderr))
+    rotation = np.asarray(rotation, dtype=float)
+    omega = np.asarray(omega, dtype=float)
+    if inertia is not None:
+        inertia = np.asarray(inertia, dtype=float)
+    try:
+        out = _ensemble_flags(flags, rotation, omega, None, inertia, report, wheels, limits,
+                              None if target is None else np.asarray(target, dtype=float))
+    except ValueError as e:
+        raise ValueError(_python_words(str(e))) from None
+    for m in out.pop("messages"):
+        if m.startswith(_WARNING):
+            warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=2)
+    return out
 # ---- end control ----

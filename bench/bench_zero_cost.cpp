@@ -20,6 +20,7 @@
 //   build/report/bench/trompo-bench-zero-cost --benchmark_filter=Ratios
 //
 // BM_CompensatedCost/k: what the compensated state costs a Simo-κ step of HT0 at h = 10^−k
+// (BM_CompensatedCostLgvi/k: an LGVI step of FB1)
 // (plain and compensated trajectories in interleaved blocks; docs/theory.md §18).
 //
 //   build/report/bench/trompo-bench-zero-cost --benchmark_filter=Compensated
@@ -318,16 +319,16 @@ void BM_ZeroCostRatios(benchmark::State& st) {
 BENCHMARK(BM_ZeroCostRatios)->Iterations(400)->Unit(benchmark::kMillisecond);
 
 // ---- the compensated state's cost (docs/theory.md §18) --------------------------------------------
-/// Simo-κ on HT0 at h (state.range(0) = −log10 h): blocks of 256 steps of a plain and of a
+/// `Scheme` on `c` at h (state.range(0) = −log10 h): blocks of 256 steps of a plain and of a
 /// compensated Trajectory, interleaved, each walking its own trajectory. Reports the median
 /// per-step times, their ratio and the heap allocations per step.
-void BM_CompensatedCost(benchmark::State& st) {
+template <class Scheme, class Case>
+void compensated_cost(benchmark::State& st, const Case& c) {
   const double h = std::pow(10.0, -static_cast<double>(st.range(0)));
-  const auto c = trompo::cases::ht0<double>();
-  trompo::SimoKappa plain, compensated;
+  Scheme plain, compensated;
   compensated.compensated = true;
-  const trompo::Stepper<trompo::SimoKappa, trompo::cases::Top<double>> st_plain(plain, c.scene),
-      st_comp(compensated, c.scene);
+  using SceneT = std::decay_t<decltype(c.scene)>;
+  const trompo::Stepper<Scheme, SceneT> st_plain(plain, c.scene), st_comp(compensated, c.scene);
   auto traj_plain = st_plain.start(c.initial);
   auto traj_comp = st_comp.start(c.initial);
   std::vector<double> times[2];
@@ -356,7 +357,12 @@ void BM_CompensatedCost(benchmark::State& st) {
   st.counters["compensated/plain"] = comp_ns / plain_ns;
   st.counters["heap_allocs_per_step"] = static_cast<double>(allocations) / static_cast<double>(steps);
 }
+/// Simo-κ on HT0.
+void BM_CompensatedCost(benchmark::State& st) { compensated_cost<trompo::SimoKappa>(st, trompo::cases::ht0<double>()); }
 BENCHMARK(BM_CompensatedCost)->Arg(2)->Arg(3)->Arg(5)->Iterations(400)->Unit(benchmark::kMillisecond);
+/// The LGVI on FB1 (the compensated state of its Π, theory §18).
+void BM_CompensatedCostLgvi(benchmark::State& st) { compensated_cost<trompo::LGVI>(st, trompo::cases::fb1<double>()); }
+BENCHMARK(BM_CompensatedCostLgvi)->Arg(2)->Arg(3)->Iterations(400)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -630,7 +630,14 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
       }
       default: {
         Stepper<Splitting, Scene> st(Splitting(), scene);
-        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+        // Steps that follow the rate (FixedSteps::max_angle, [W16]) on tame inputs, where the
+        // start's rate asks at most 10^4 steps a hold (a drawn 0 byte: off, as before).
+        double angle = 0;
+        if (!wild && (in.byte() & 1)) {
+          angle = in.magnitude(-1.3, 0, false, false);
+          if (!(s.omega.norm() * period / angle <= 1e4)) angle = 0;
+        }
+        sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h, {}, angle});
       }
     }
   } catch (const invalid_input&) {

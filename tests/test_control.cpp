@@ -743,6 +743,7 @@ TEST_CASE("sampled: steps limited by the angle turned at the sample's rate", "[c
   // h still bounds the step where the rate allows a longer one; backward runs divide |Δt|.
   CHECK(FixedSteps<double>{0.05, {}, 0.1}.step_for(0.01, 0.25) == Approx(0.05).epsilon(1e-15));
   CHECK(FixedSteps<double>{-0.25, {}, 0.1}.step_for(2.0, -0.25) == Approx(-0.05).epsilon(1e-15));
+  CHECK(FixedSteps<double>{0.25, {}, 0.1}.step_for(2.0, -0.25) == 0.25);  // against the run: left to integrate() to refuse
   CHECK(FixedSteps<double>{0.25}.step_for(100.0, 0.25) == 0.25);  // max_angle 0: off
   State<double> s;
   s.omega = Vec3(1, 0, 0);

@@ -477,18 +477,24 @@ def ensemble(rotation, omega, *, scene=None, mgl=None, inertia=None, case=None, 
         mgl = np.asarray(mgl, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
-    # progress: called by C++ after each chunk of members (done, n), from the thread that
-    # finished it, one call at a time; True prints a line on stderr.
+    return _run_ensemble("ensemble", progress, flags, rotation, omega, mgl, inertia)
+
+
+def _run_ensemble(function, progress, flags, rotation, omega, mgl, inertia, **closed_loop):
+    """The engine's ensemble in Python's words: messages with keywords for flags, its warnings
+    as UserWarnings at the caller's line. ``progress``: called by C++ after each chunk of
+    members (done, n), from the thread that finished it, one call at a time; True prints a
+    line on stderr."""
     report = None
     if progress:
-        report = progress if callable(progress) else (lambda k, n: print(f"ensemble: {k}/{n} members", file=sys.stderr))
+        report = progress if callable(progress) else (lambda k, n: print(f"{function}: {k}/{n} members", file=sys.stderr))
     try:
-        out = _ensemble_flags(flags, rotation, omega, mgl, inertia, report)
+        out = _ensemble_flags(flags, rotation, omega, mgl, inertia, report, **closed_loop)
     except ValueError as e:
         raise ValueError(_python_words(str(e))) from None
     for m in out.pop("messages"):
         if m.startswith(_WARNING):
-            warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=2)
+            warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=3)
     return out
 
 
@@ -641,9 +647,22 @@ class CommandError(ControlError, ValueError):
     the message names the command and t_k. Also a ValueError."""
 
 
-def _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle):
+def _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle):
     """The engine's flags of a control run (or of each member of a closed-loop ensemble), the
-    MrpPd target (or None) and a Python controller (or None)."""
+    MrpPd target (or None) and a Python controller (or None), after the checks of the
+    arguments they share (a ValueError naming the keyword)."""
+    if not isinstance(spacecraft, Spacecraft):
+        raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
+    t_end = _finite("t_end", t_end, positive=True)
+    if dt is None and rtol is None:
+        raise ValueError("dt: required (or give rtol for adaptive steps)")
+    if dt is not None:
+        dt = _finite("dt", dt, positive=True)
+    period = _finite("period", period, positive=True)
+    if dt is not None and period < dt:
+        raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
+    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
+        raise ValueError(f"order: must be an integer, got {order!r}")
     flags = {"--inertia": _vector("inertia", spacecraft.inertia, (3, 6)), "--t-end": repr(t_end),
              "--scheme": str(scheme), "--control-period": repr(period)}
     if dt is not None:
@@ -705,22 +724,12 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
     if not isinstance(state, State):
         raise ValueError(f"state: expected a trompo.State (trompo.initial_state(...)), got {state!r}")
-    t_end = _finite("t_end", t_end, positive=True)
-    if dt is None and rtol is None:
-        raise ValueError("dt: required (or give rtol for adaptive steps)")
-    if dt is not None:
-        dt = _finite("dt", dt, positive=True)
-    period = _finite("period", period, positive=True)
-    if dt is not None and period < dt:
-        raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
     if rtol is None and (t_eval is not None or events is not None or dense_output):
         what = "t_eval" if t_eval is not None else "events" if events is not None else "dense_output"
         raise ValueError(f"{what}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
-    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
-        raise ValueError(f"order: must be an integer, got {order!r}")
-    flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle)
+    flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle)
     memory = {} if fn is not None else None
     if t_eval is None:
         flags["--every"] = str(int(every))
@@ -756,7 +765,7 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
             status_, rows_, messages_, *_ = run(f, None if fn is None else {})
             return status_, rows_, messages_
         res["sol"] = _dense_solution(lambda kw, _events=None: again(dict(quiet, **{"--t-eval": kw["t_eval"]})), {}, 0.0,
-                                     0.0, t_end)
+                                     0.0, float(t_end))
     res["success"] = status == 0
     res["message"] = "ok" if status == 0 else (messages[-1] if messages else "")
     if status == -1:
@@ -782,43 +791,20 @@ def control_ensemble(spacecraft, rotation, omega, t_end, *, period, controller, 
     ``mu``, ``pi``, ``wheel_speeds`` (N, n_w), ``u`` (N, n_w) the torques held at the end,
     ``iterations``, ``ok``, ``status``. docs/python.md, "Closed-loop ensembles".
     """
-    if not isinstance(spacecraft, Spacecraft):
-        raise ValueError(f"spacecraft: expected a trompo.Spacecraft, got {spacecraft!r}")
     if not isinstance(controller, (MrpPd, BDot)):
         raise ValueError(f"controller: a closed-loop ensemble takes trompo.MrpPd or trompo.BDot (a Python callable "
                          f"would serialise the members on the interpreter's lock), got {controller!r}")
-    t_end = _finite("t_end", t_end, positive=True)
-    if dt is None and rtol is None:
-        raise ValueError("dt: required (or give rtol for adaptive steps)")
-    if dt is not None:
-        dt = _finite("dt", dt, positive=True)
-    period = _finite("period", period, positive=True)
-    if dt is not None and period < dt:
-        raise ValueError(f"period: {period!r} is shorter than the step dt = {dt!r}")
-    if isinstance(order, bool) or not isinstance(order, (numbers.Integral, np.integer)):
-        raise ValueError(f"order: must be an integer, got {order!r}")
-    flags, target, _ = _control_flags(spacecraft, controller, t_end, period, dt, scheme, order, max_step_angle)
+    flags, target, _ = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle)
     if rtol is not None:
         flags["--rtol"] = _number("rtol", rtol)
         flags["--atol"] = _number("atol", atol)
     flags["--threads"] = _number("threads", threads)
     flags["--ensemble"] = "(arrays)"
     wheels, limits = _wheel_arrays(spacecraft)
-    report = None
-    if progress:
-        report = progress if callable(progress) else (lambda k, n: print(f"control_ensemble: {k}/{n} members",
-                                                                         file=sys.stderr))
     rotation = np.asarray(rotation, dtype=float)
     omega = np.asarray(omega, dtype=float)
     if inertia is not None:
         inertia = np.asarray(inertia, dtype=float)
-    try:
-        out = _ensemble_flags(flags, rotation, omega, None, inertia, report, wheels, limits,
-                              None if target is None else np.asarray(target, dtype=float))
-    except ValueError as e:
-        raise ValueError(_python_words(str(e))) from None
-    for m in out.pop("messages"):
-        if m.startswith(_WARNING):
-            warnings.warn(_python_words(m[len(_WARNING):]), UserWarning, stacklevel=2)
-    return out
+    return _run_ensemble("control_ensemble", progress, flags, rotation, omega, None, inertia, wheels=wheels,
+                         limits=limits, target=None if target is None else np.asarray(target, dtype=float))
 # ---- end control ----

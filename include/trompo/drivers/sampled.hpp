@@ -100,7 +100,9 @@ struct FixedSteps {
   /// max_angle > 0, span/n as above.
   Scalar step_for(Scalar rate, Scalar span) const {
     using std::abs, std::ceil, std::max;
-    if (!(max_angle > Scalar(0)) || !(abs(h) > Scalar(0)) || span == Scalar(0)) return h;
+    // Off, or an h that integrate() refuses anyway (zero, or against the run's direction).
+    if (!(max_angle > Scalar(0)) || !(abs(h) > Scalar(0)) || span == Scalar(0) || (h > Scalar(0)) != (span > Scalar(0)))
+      return h;
     const Scalar by_h = ceil(abs(span) / abs(h)), by_angle = ceil(rate * abs(span) / max_angle);
     const Scalar n = max(Scalar(1), max(by_h, by_angle));
     if (!std::isfinite(static_cast<double>(n))) return h;

@@ -390,6 +390,14 @@ def test_control_ensemble_members_are_their_single_runs():
                             every=10**6)
     assert b["ok"].all() and b["wheel_speeds"].shape == (2, 0)
     assert np.array_equal(b["R"][0], single.R[-1]) and np.array_equal(b["W"][0], single.W[-1])
+    # Adaptive holds (rtol): each member its single adaptive control run; progress reaches (N, N).
+    calls = []
+    a = trompo.control_ensemble(sc, rot, om, 5.0, inertia=J, rtol=1e-9, atol=1e-9, period=0.1, controller=pd,
+                                order=4, progress=lambda k, n: calls.append((k, n)))
+    single = trompo.control(trompo.Spacecraft(J[1], wheels=sc.wheels), starts[1], 5.0, rtol=1e-9, atol=1e-9, period=0.1,
+                            controller=pd, order=4)
+    assert a["ok"].all() and np.array_equal(a["R"][1], single.R[-1]) and np.array_equal(a["W"][1], single.W[-1])
+    assert calls and calls[-1] == (3, 3)
     with pytest.raises(ValueError, match="controller: a closed-loop ensemble takes trompo.MrpPd or trompo.BDot"):
         trompo.control_ensemble(sc, rot, om, 1.0, dt=0.1, period=0.1, controller=mrp_pd(1, 5))
     with pytest.raises(ValueError, match="member 2: .*hub"):

@@ -114,10 +114,12 @@ class DipoleField {
   /// by their cosines and sines: from them B at a nearby time costs no trigonometric call
   /// (angle addition, [W10]). A magnetorquer keeps the phase of its hold's start.
   struct Phase {
-    Scalar t = Scalar(0);                                  ///< t₀
-    Scalar cos_theta = Scalar(1), sin_theta = Scalar(0);  ///< θ(t₀)
-    Scalar cos_u = Scalar(1), sin_u = Scalar(0);          ///< u(t₀)
-    bool valid = false;                                    ///< set by phase()
+    Scalar t = Scalar(0);          ///< t₀
+    Scalar cos_theta = Scalar(1);  ///< cos θ(t₀)
+    Scalar sin_theta = Scalar(0);  ///< sin θ(t₀)
+    Scalar cos_u = Scalar(1);      ///< cos u(t₀)
+    Scalar sin_u = Scalar(0);      ///< sin u(t₀)
+    bool valid = false;            ///< set by phase()
   };
   /// The phase at t.
   Phase phase(Scalar t) const {

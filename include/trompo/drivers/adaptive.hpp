@@ -510,7 +510,10 @@ struct AdaptiveLoop {
     // A finite state whose Ω̇ or Ω̈ overflows (|Ω| near 1e110, or a step without error
     // control gone far astray) has no interpolant: the step is not committed and the run
     // fails as non-finite, at the last node whose rates were finite (found by the fuzzer).
-    if (!rates_finite(node_a) || !rates_finite(node_b)) {
+    // Likewise a step that turns the body so far that the interpolant's rotation vector
+    // would overflow when squared in exp (found by the fuzzer: |Ω| ≈ 1e240 after a wild
+    // potential under the reversible control, which has no error test).
+    if (!rates_finite(node_a) || !rates_finite(node_b) || !interpolable(node_a, node_b)) {
       if (stepped_in_place) static_cast<State<Scalar>&>(traj) = start_state;
       have_node_a = false;
       --sum.accepted;
@@ -570,6 +573,18 @@ struct AdaptiveLoop {
   /// Whether a node's rates (Ω̇, and Ω̈ where the quintic needs it) are finite.
   bool rates_finite(const DenseNode<Scalar>& n) const {
     return detail::all_finite(n.omega_dot) && (!opt.quintic || detail::all_finite(n.omega_ddot));
+  }
+
+  /// Whether the segment between two nodes can be evaluated: its rotation vector, at most
+  /// |h|(|Ω_a| + |Ω_b|) + h²(|Ω̇_a| + |Ω̇_b|) (+ |h|³(|Ω̈_a| + |Ω̈_b|) for the quintic) in each
+  /// component, stays far below √(max) (~1e154 in double), whose square exp would overflow.
+  bool interpolable(const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) const {
+    using std::abs, std::sqrt;
+    const Scalar h = abs(b.state.time - a.state.time);
+    const auto largest = [](const Eigen::Matrix<Scalar, 3, 1>& v) { return v.cwiseAbs().maxCoeff(); };
+    Scalar size = h * (largest(a.state.omega) + largest(b.state.omega)) + h * h * (largest(a.omega_dot) + largest(b.omega_dot));
+    if (opt.quintic) size += h * h * h * (largest(a.omega_ddot) + largest(b.omega_ddot));
+    return size <= sqrt(std::numeric_limits<Scalar>::max()) / Scalar(1024);  // false for NaN
   }
 
   /// Whether a step from t of size h lands on (or beyond) t_end: then it is shortened.

@@ -539,7 +539,9 @@ struct AdaptiveLoop {
         Traj real = traj;
         static_cast<State<Scalar>&>(real) = before;
         IntegrationSummary<Scalar> s;
-        if (!too_small(o.t - before.time)) {
+        // (above the run's resolution, and integrate's own from the step's start to the
+        // event, which a step whose end is nearer t = 0 than its start may miss alone)
+        if (!too_small(o.t - before.time) && detail::resolves(o.t - before.time, before.time, o.t)) {
           s = integrate(stepper, real, o.t, o.t - before.time);
           sum.iterations += s.iterations;
           sum.base_steps += s.steps + s.substeps;
@@ -711,6 +713,13 @@ struct AdaptiveLoop {
         ++sum.failures;
         sum.failure = r.status;
         assign(next, traj);
+        if (!detail::resolves(h / Scalar(2), traj.time, t_next)) {
+          // halves below the time resolution (integrate would refuse them): the run fails
+          // where it is, with the step's own failure (found by the fuzzer)
+          sum.status = AdaptiveStatus::failed;
+          sum.time = traj.time;
+          return;
+        }
         const IntegrationSummary<Scalar> s = integrate(stepper, next, t_next, h / Scalar(2));
         sum.iterations += s.iterations;
         sum.base_steps += s.steps + s.substeps;

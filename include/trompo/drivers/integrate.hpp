@@ -67,6 +67,18 @@ struct IntegrateOptions {
   int max_halvings = 10;
 };
 
+namespace detail {
+/// Whether a step h between t0 and t_end is above the time resolution at the far end,
+/// |h| > 4ε·max(|t0|, |t_end|): integrate() refuses a smaller one (its grid times would not be
+/// distinct), and the adaptive driver takes no such step.
+template <class Scalar>
+bool resolves(Scalar h, Scalar t0, Scalar t_end) {
+  using std::abs;
+  const Scalar far = abs(t0) > abs(t_end) ? abs(t0) : abs(t_end);
+  return abs(h) > Scalar(4) * std::numeric_limits<Scalar>::epsilon() * far;  // false for NaN
+}
+}  // namespace detail
+
 /// What integrate did.
 template <class Scalar>
 struct IntegrationSummary {
@@ -289,11 +301,9 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
     detail::fail("integrate: ", ratio, " steps of h = ", h, " is too many");
   const std::int64_t n = n_real < Scalar(1) ? 1 : static_cast<std::int64_t>(n_real);
   // Every grid time must be distinct: h above the time resolution at the far end.
-  {
-    const Scalar far = abs(t0) > abs(t_end) ? abs(t0) : abs(t_end);
-    if (!(abs(h) > Scalar(4) * eps * far))
-      detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ", far);
-  }
+  if (!detail::resolves(h, t0, t_end))
+    detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ",
+                 abs(t0) > abs(t_end) ? abs(t0) : abs(t_end));
 
   Integrator<Stepper, StateT, defers_output<Stepper, StateT, Observer>()> run{stepper, state, sum,
                                                                                 options.max_halvings};

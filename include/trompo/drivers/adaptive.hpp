@@ -597,11 +597,9 @@ struct AdaptiveLoop {
     return last ? left : h;
   }
 
-  bool too_small(Scalar h) const {
-    using std::abs;
-    const Scalar far = std::max(abs(traj.time), abs(t_end));
-    return !(abs(h) > Scalar(4) * std::numeric_limits<Scalar>::epsilon() * far) || h == Scalar(0);
-  }
+  /// Whether a step h is zero or below the time resolution at the run's far end
+  /// (integrate's rule, detail::resolves, from the current time to t_end).
+  bool too_small(Scalar h) const { return !detail::resolves(h, traj.time, t_end) || h == Scalar(0); }
 
   // ---- tolerance mode [A3] --------------------------------------------------------------
   /// Whether the scheme's error scales with the load (SchemeTraits::error_scales_with_load).

@@ -29,6 +29,7 @@
 #include <limits>
 
 #include "trompo/errors.hpp"
+#include "trompo/lie/series.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/effects/effect.hpp"
 
@@ -132,17 +133,18 @@ class DipoleField {
   Vector3 inertial(Scalar t) const { return inertial_of(phase(t)); }
 
   /// B at time t from the phase p of a nearby time: cos(a + δ) = cos a cos δ − sin a sin δ with
-  /// δ = rate·(t − p.t) and cos δ, sin δ by their series, exact in double for |δ| ≤ 1/64 (the
-  /// first term left out, δ⁷/5040 or δ⁸/40320, is below 2⁻⁵⁶|δ|). Farther from p.t (or
-  /// without a phase) the angles are evaluated afresh.
+  /// δ = rate·(t − p.t) and cos δ, sin δ by detail::sin_cos's series (lie/series.hpp, below
+  /// small_angle = ¼, truncation below 1e-19). Farther from p.t (or without a phase) the
+  /// angles are evaluated afresh.
   Vector3 inertial(Scalar t, const Phase& p) const {
     using std::abs;
     const Scalar dt = t - p.t;
     const Scalar du = orbit_.rate() * dt, dth = Scalar(earth_rate) * dt;
-    if (!p.valid || !(abs(du) <= Scalar(1) / Scalar(64)) || !(abs(dth) <= Scalar(1) / Scalar(64))) return inertial(t);
+    const Scalar series = detail::small_angle<Scalar>::theta;
+    if (!p.valid || !(abs(du) < series) || !(abs(dth) < series)) return inertial(t);
     Scalar cu, su, cth, sth;
-    small_angle(du, cu, su);
-    small_angle(dth, cth, sth);
+    detail::sin_cos(du, su, cu);
+    detail::sin_cos(dth, sth, cth);
     return inertial_of({t, p.cos_theta * cth - p.sin_theta * sth, p.sin_theta * cth + p.cos_theta * sth,
                         p.cos_u * cu - p.sin_u * su, p.sin_u * cu + p.cos_u * su, true});
   }
@@ -154,12 +156,6 @@ class DipoleField {
     const Vector3 m(p.cos_theta * m0_.x() - p.sin_theta * m0_.y(), p.sin_theta * m0_.x() + p.cos_theta * m0_.y(), m0_.z());
     const Vector3 r = orbit_.radial_of(p.cos_u, p.sin_u);
     return Scalar(3) * m.dot(r) * r - m;  // m₀ carries the factor (R_E/r)³
-  }
-  /// cos δ and sin δ for |δ| ≤ 1/64 by their series to δ⁶ and δ⁷.
-  static void small_angle(Scalar d, Scalar& c, Scalar& s) {
-    const Scalar d2 = d * d;
-    s = d * (Scalar(1) - d2 * Scalar(1.0L / 6) * (Scalar(1) - d2 * Scalar(1.0L / 20) * (Scalar(1) - d2 * Scalar(1.0L / 42))));
-    c = Scalar(1) - d2 * Scalar(0.5) * (Scalar(1) - d2 * Scalar(1.0L / 12) * (Scalar(1) - d2 * Scalar(1.0L / 30)));
   }
   CircularOrbit<Scalar> orbit_;
   Vector3 m0_;  ///< (g11, h11, g10)(R_E/r)³ in tesla

@@ -520,6 +520,16 @@ inline CliController make_controller(const Config& c) {
   return ctrl;
 }
 
+/// The sample period: --control-period, or without a controller one hold over the whole run
+/// (the wheels at constant momentum).
+inline double control_period(const Config& c) {
+  return c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(c.dt.value_or(0.0))));
+}
+/// Fixed steps of --dt between the samples, following the rate with --max-step-angle [W16].
+inline trompo::FixedSteps<double> control_fixed_steps(const Config& c) {
+  return {*c.dt, {}, c.control.max_angle.value_or(0.0)};
+}
+
 /// A stepper the sampled driver can hold commands in (its scene, mutable) that counts the
 /// Newton iterations since the last written row, as CountingStepper does.
 template <class StepperT>
@@ -595,8 +605,7 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
   stepper.scene().template effect<ReactionWheels<double>>().start(s.time, s.omega);
   const int n = stepper.scene().template effect<ReactionWheels<double>>().size();
   CliController ctrl = make_controller(c);
-  // Without a controller one hold spans the run (the wheels at constant momentum).
-  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(c.dt.value_or(0.0))));
+  const double period = control_period(c);
   const V3 up = c.up.normalized();
   out.wheel_header(n);
   long k = -1;
@@ -622,7 +631,7 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
       if (++k % c.every == 0) row(x);
     };
     const SampledSummary<double> sum =
-        integrate_sampled(stepper, s, *c.t_end, period, ctrl, FixedSteps<double>{*c.dt, {}, c.control.max_angle.value_or(0.0)}, observer);
+        integrate_sampled(stepper, s, *c.t_end, period, ctrl, control_fixed_steps(c), observer);
     if (!(s.time == last_row)) row(s);  // the end, always
     return sum.ok() ? 0 : failed(sum.reason());
   }
@@ -699,7 +708,7 @@ int run_control_with(StepperT stepper, const Config& c, trompo::State<double>, E
     starts[i].omega = in.omega[i];
   }
   const CliController ctrl = make_controller(c);
-  const double period = c.control.period.value_or(std::max(std::abs(*c.t_end), std::abs(c.dt.value_or(0.0))));
+  const double period = control_period(c);
   EnsembleOptions options{.threads = c.threads};
   options.progress = e.progress;
   auto setup = [&](std::size_t i, StepperT& st, CliController&) {
@@ -712,7 +721,7 @@ int run_control_with(StepperT stepper, const Config& c, trompo::State<double>, E
     const AdaptiveSteps<double> between{adaptive_options(c)};
     e.sampled = integrate_sampled_ensemble(stepper, starts, *c.t_end, period, ctrl, between, options, setup);
   } else {
-    const FixedSteps<double> between{*c.dt, {}, c.control.max_angle.value_or(0.0)};
+    const FixedSteps<double> between = control_fixed_steps(c);
     e.sampled = integrate_sampled_ensemble(stepper, starts, *c.t_end, period, ctrl, between, options, setup);
   }
   e.wheels = stepper.scene().template effect<ReactionWheels<double>>().size();

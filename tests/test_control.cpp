@@ -680,38 +680,71 @@ TEST_CASE("magnetorquer: the dipole field and the torque m x B", "[control]") {
   CHECK(mtq.saturate(Vec3(1, -1, 0.1)) == Vec3(0.2, -0.2, 0.1));
 }
 
-// [W16] B from the hold's phase by angle addition: the same field to round-off as four
-// trigonometric calls, up to |δ| = ¼ (sin_cos's series) and beyond it (the angles afresh).
-TEST_CASE("magnetorquer: the field by angle addition from the hold's phase", "[control]") {
+// [W16] B inside a hold from its Taylor expansion about the hold's start: the same field to
+// round-off as four trigonometric calls, at the degree chosen by the span and out to the
+// expansion's reach; beyond the reach (or without an expansion) B is evaluated afresh.
+TEST_CASE("magnetorquer: the field from the hold's Taylor expansion", "[control]") {
   const double pi = 3.14159265358979323846;
+  using Field = DipoleField<double>;
   const CircularOrbit<double> orbit(6771e3, 51.6 * pi / 180, 0.4, 0.1);
-  const DipoleField<double> field(orbit, -29404.8, -1450.9, 4652.5, 0.7);
+  const Field field(orbit, -29404.8, -1450.9, 4652.5, 0.7);
   using LD = long double;
   const DipoleField<LD> truth(CircularOrbit<LD>(6771e3L, LD(51.6) * LD(pi) / 180, LD(0.4), LD(0.1)), LD(-29404.8),
                               LD(-1450.9), LD(4652.5), LD(0.7));
-  const double n = orbit.rate();
+  // The reach table: the first term left out, 2x^{D+1}/(D+1)!, is below 2^-56 at x_D, and
+  // not far below (the table is rounded down by less than 1 %).
+  LD factorial = 1;
+  for (int D = 1; D <= Field::max_degree; ++D) {
+    factorial *= D + 1;
+    const LD term = 2 * std::pow(LD(Field::degree_reach[D]), D + 1) / factorial;
+    INFO("degree " << D << ": first term left out " << static_cast<double>(term) << " of 2^-56");
+    CHECK(term <= std::ldexp(LD(1), -56));
+    CHECK(term >= LD(0.9) * std::ldexp(LD(1), -56));
+  }
+  const double w_max = 2 * orbit.rate() + Field::earth_rate;
+  // The lowest degree that serves the span: a 4 Hz sample in low orbit needs degree 4.
+  CHECK(field.expansion(0.0, 0.25).degree == 4);
+  CHECK(field.expansion(0.0, -0.25).degree == 4);
+  CHECK(field.expansion(0.0, 5.0).degree == 6);
+  CHECK(field.expansion(0.0).degree == Field::max_degree);
+  CHECK(field.expansion(0.0, 1e6).degree == Field::max_degree);
   double worst = 0, worst_direct = 0;
-  int fresh = 0;
+  int afresh = 0;
   for (const double t0 : {0.0, 1234.5, 55451.25, -800.0}) {
-    const auto phase = field.phase(t0);
-    for (const double frac : {1e-9, 1e-4, 0.01, 0.3, 0.99, 1.0, 1.5, 15.9, 40.0}) {
-      for (const double sign : {1.0, -1.0}) {
-        const double t = t0 + sign * frac / (64 * n);  // |δu| = frac/64 (¼ at frac = 16)
-        const Vec3 exact = truth.inertial(LD(t)).cast<double>();
-        // Both evaluations round the angles' arguments: ε(1 + |u| + |θ|) relative is their floor.
-        const double floor = 2.2e-16 * (1 + std::abs(orbit.latitude(t)) + std::abs(0.7 + DipoleField<double>::earth_rate * t));
-        worst = std::max(worst, (field.inertial(t, phase) - exact).norm() / exact.norm() / floor);
-        worst_direct = std::max(worst_direct, (field.inertial(t) - exact).norm() / exact.norm() / floor);
-        if (frac > 16) ++fresh;
+    for (const double span : {0.25, -0.25, 1.0, 5.0, 12.0, 0.0}) {
+      const Field::Expansion e = field.expansion(t0, span);
+      CHECK(e.reach >= std::abs(span));
+      CHECK(e.reach == Approx(Field::degree_reach[e.degree] / w_max).epsilon(1e-15));
+      if (e.degree > 1 && span != 0.0) CHECK(std::abs(span) * w_max > Field::degree_reach[e.degree - 1]);  // lowest
+      for (const double frac : {1e-9, 0.01, 0.3, 0.7, 0.99, 1.0}) {
+        for (const double sign : {1.0, -1.0}) {
+          const double t = t0 + sign * frac * e.reach;
+          const Vec3 exact = truth.inertial(LD(t)).cast<double>();
+          // Both evaluations round the angles' arguments: ε(1 + |u| + |θ|) relative is their floor.
+          const double floor = 2.2e-16 * (1 + std::abs(orbit.latitude(t)) + std::abs(0.7 + Field::earth_rate * t));
+          worst = std::max(worst, (field.inertial(t, e) - exact).norm() / exact.norm() / floor);
+          worst_direct = std::max(worst_direct, (field.inertial(t) - exact).norm() / exact.norm() / floor);
+        }
+      }
+      // Beyond the reach: afresh, bit for bit.
+      for (const double beyond : {1.001, 1.5, 40.0}) {
+        const double t = t0 + beyond * e.reach;
+        CHECK(field.inertial(t, e) == field.inertial(t));
+        ++afresh;
       }
     }
   }
-  INFO("worst error in units of the floor: by addition " << worst << ", afresh " << worst_direct);
+  INFO("worst error in units of the floor: by the expansion " << worst << ", afresh " << worst_direct);
   CHECK(worst <= 4);
   CHECK(worst_direct <= 4);
-  CHECK(fresh == 8);
-  // Without a phase (a dipole set directly, not held) B is evaluated afresh: exactly inertial(t).
-  CHECK(field.inertial(321.0, DipoleField<double>::Phase{}) == field.inertial(321.0));
+  CHECK(afresh == 72);
+  // Without an expansion (a dipole set directly, not held) B is evaluated afresh: exactly inertial(t).
+  CHECK(field.inertial(321.0, Field::Expansion{}) == field.inertial(321.0));
+  // A magnetorquer's hold keeps the expansion about the sample: its cache reads B from it.
+  Magnetorquer<double> mtq(field);
+  mtq.hold(100.0, Vec3(0.1, 0, 0));
+  const Mat3 I = Mat3::Identity();
+  CHECK((mtq.cache(I, 100.1).b - field.inertial(100.1)).norm() <= 8e-16 * field.inertial(100.1).norm());
   // The orbit's in-plane basis gives the same r̂ as [W9] written out.
   const double u = orbit.latitude(77.0), i = 51.6 * pi / 180, raan = 0.4;
   const Vec3 r(std::cos(u) * std::cos(raan) - std::sin(u) * std::cos(i) * std::sin(raan),

@@ -482,3 +482,41 @@ TEMPLATE_TEST_CASE("SO3 renormalized: repairs a drifted matrix to its polar rota
   CHECK_THROWS_AS(SO3<S>::renormalized(singular), trompo::invalid_input);
   CHECK_THROWS_AS(SO3<S>::renormalized(M3<S>(-M3<S>::Identity())), trompo::invalid_input);
 }
+
+// ---- sin_cos and small_sinc_cos (lie/series.hpp): three terms of each series below
+// small_angle::tiny, seven below small_angle::theta, the library's sin and cos above; each
+// within 2ε of the exact values on both sides of both switches, in every Scalar.
+template <class S>
+void check_sin_cos_tiers() {
+  using trompo::detail::small_angle;
+  const S tiny = small_angle<S>::tiny, th = small_angle<S>::theta;
+  const S lo = S(1) - S(1e-4L), hi = S(1) + S(1e-4L);
+  std::vector<S> ys{S(0), S(1e-12L), S(1e-6L), S(0.5) * tiny, tiny * lo, tiny, tiny * hi, S(2) * tiny,
+                    S(0.1L), th * lo, th, th * hi, S(1), S(3)};
+  const S tol = S(2) * eps<S>();
+  for (const S y0 : ys) {
+    for (const S y : {y0, -y0}) {
+      S s, c;
+      trompo::detail::sin_cos(y, s, c);
+      const Hi exact_s = sin(Hi(y)), exact_c = cos(Hi(y));
+      INFO(typeid(S).name() << " y = " << static_cast<double>(y));
+      CHECK(std::abs(static_cast<LD>(Hi(s) - exact_s)) <= static_cast<LD>(tol) * std::abs(static_cast<LD>(exact_s)));
+      CHECK(std::abs(static_cast<LD>(Hi(c) - exact_c)) <= static_cast<LD>(tol) * std::abs(static_cast<LD>(exact_c)));
+      if (y * y < th * th) {  // small_sinc_cos takes y² below the switch
+        S sinc_y, c2;
+        trompo::detail::small_sinc_cos(y * y, sinc_y, c2);
+        const Hi yy = Hi(y * y);  // the argument as given, rounded
+        using std::sqrt;
+        const Hi r = sqrt(yy), exact_sinc = r == 0 ? Hi(1) : Hi(sin(r) / r);
+        CHECK(std::abs(static_cast<LD>(Hi(sinc_y) - exact_sinc)) <= static_cast<LD>(tol) * static_cast<LD>(exact_sinc));
+        CHECK(std::abs(static_cast<LD>(Hi(c2) - cos(r))) <= static_cast<LD>(tol) * std::abs(static_cast<LD>(cos(r))));
+      }
+    }
+  }
+}
+
+TEST_CASE("series: sin_cos and small_sinc_cos within 2 eps across both switches", "[so3][series]") {
+  check_sin_cos_tiers<float>();
+  check_sin_cos_tiers<double>();
+  check_sin_cos_tiers<long double>();
+}

@@ -159,8 +159,12 @@ template <class E, class Scene>
 inline constexpr bool scene_has_v = detail::scene_has<E, Scene>::value;
 
 /// The sample at the state s: wheel speeds and the field in body axes where the scene has them.
+/// With magnetorquers `field` receives the field's expansion about s.time for a hold of length
+/// `span` [W16], of which the sample reads B(t_k) and the hold keeps the rest (hold_command).
 template <class Scene>
-Sample<typename Scene::Scalar> make_sample(const Scene& scene, const State<typename Scene::Scalar>& s, long long k) {
+Sample<typename Scene::Scalar> make_sample(const Scene& scene, const State<typename Scene::Scalar>& s, long long k,
+                                           typename DipoleField<typename Scene::Scalar>::Expansion& field,
+                                           typename Scene::Scalar span) {
   using Scalar = typename Scene::Scalar;
   Sample<Scalar> smp;
   smp.index = k;
@@ -172,7 +176,8 @@ Sample<typename Scene::Scalar> make_sample(const Scene& scene, const State<typen
     smp.wheel_axes = rw.axes();
   }
   if constexpr (scene_has_v<Magnetorquer<Scalar>, Scene>) {
-    smp.field = s.rotation.inverse() * scene.template effect<Magnetorquer<Scalar>>().field().inertial(s.time);
+    field = scene.template effect<Magnetorquer<Scalar>>().field().expansion(s.time, span);
+    smp.field = s.rotation.inverse() * field.B[0];
     smp.has_field = true;
   }
   return smp;
@@ -208,9 +213,11 @@ std::string command_problem(const Scene& scene, const Command<typename Scene::Sc
   return {};
 }
 
-/// Saturates a command [W5] and holds it in the scene's effects from t on.
+/// Saturates a command [W5] and holds it in the scene's effects from t on (the field's
+/// expansion about t from make_sample).
 template <class Scene>
-void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const Sample<typename Scene::Scalar>& smp) {
+void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const Sample<typename Scene::Scalar>& smp,
+                  const typename DipoleField<typename Scene::Scalar>::Expansion& field) {
   using Scalar = typename Scene::Scalar;
   if constexpr (scene_has_v<ReactionWheels<Scalar>, Scene>) {
     auto& rw = scene.template effect<ReactionWheels<Scalar>>();
@@ -222,7 +229,7 @@ void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const 
     scene.template effect<HeldBodyTorque<Scalar>>().function().value = c.body_torque;
   if constexpr (scene_has_v<Magnetorquer<Scalar>, Scene>) {
     auto& mtq = scene.template effect<Magnetorquer<Scalar>>();
-    mtq.hold(smp.time, mtq.saturate(c.dipole));
+    mtq.hold(mtq.saturate(c.dipole), field);
   }
 }
 
@@ -260,7 +267,8 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
   for (long long k = 0; k < std::max<long long>(n_samples, 1); ++k) {
     const Scalar t_k = t0 + dir * Scalar(k) * period;
     const Scalar t_next = k + 1 >= n_samples ? t_end : t0 + dir * Scalar(k + 1) * period;
-    const Sample<Scalar> smp = make_sample(stepper.scene(), static_cast<const State<Scalar>&>(state), k);
+    typename DipoleField<Scalar>::Expansion field;
+    const Sample<Scalar> smp = make_sample(stepper.scene(), static_cast<const State<Scalar>&>(state), k, field, t_next - t_k);
     Command<Scalar> cmd;
     if constexpr (std::is_copy_assignable_v<Controller>) {
       // Called on a copy, kept only if its command is held: a refused command leaves the
@@ -276,7 +284,7 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
       sum.command_error = command_problem(stepper.scene(), cmd, t_k);
       if (!sum.command_error.empty()) break;
     }
-    hold_command(stepper.scene(), cmd, smp);
+    hold_command(stepper.scene(), cmd, smp, field);
     ++sum.samples;
     if constexpr (observed) observer(static_cast<const State<Scalar>&>(state));
     if (t_next == state.time) break;  // t_end = t_0

@@ -102,11 +102,23 @@ inline void rotate_back_axis(Vector3& P, Scalar c, Scalar sn) {
 /// symmetric branch [F7].
 template <int K, class Scalar, class Vector3>
 inline void symmetric_free_flow(Eigen::Quaternion<Scalar>& q, Vector3& Pi, Scalar t, Scalar Ja_inv, Scalar c) {
-  const Scalar pn = Pi.norm();
-  const Scalar half = Scalar(0.5) * t * Ja_inv * pn;
-  Scalar sh, ch, sp, cp;
-  sin_cos(half, sh, ch);
-  const Scalar k = pn > Scalar(0) ? sh / pn : Scalar(0);  // Π = 0: no rotation
+  // The first factor turns by 2·half, half = a|Π|: its quaternion is (cos half, k Π) with
+  // k = sin(half)/|Π| = a·sinc(half), from half² = a²|Π|² below the series' switch (no root,
+  // no division); above it (or if a²|Π|² overflows) from |Π| itself.
+  const Scalar a = Scalar(0.5) * t * Ja_inv;
+  const Scalar half_sq = a * a * Pi.squaredNorm();
+  constexpr Scalar switch_sq = small_angle<Scalar>::theta * small_angle<Scalar>::theta;
+  Scalar k, ch, sp, cp;
+  if (half_sq < switch_sq) {
+    Scalar sinc_half;
+    small_sinc_cos(half_sq, sinc_half, ch);
+    k = a * sinc_half;
+  } else {
+    const Scalar pn = Pi.norm();
+    Scalar sh;
+    sin_cos(a * pn, sh, ch);
+    k = pn > Scalar(0) ? sh / pn : Scalar(0);  // Π = 0: no rotation
+  }
   q = q * Eigen::Quaternion<Scalar>(ch, k * Pi.x(), k * Pi.y(), k * Pi.z());
   const Scalar phi_half = Scalar(0.5) * t * c * Pi(K);
   sin_cos(phi_half, sp, cp);

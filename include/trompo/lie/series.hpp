@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 namespace trompo::detail {
 
@@ -20,6 +21,11 @@ template <class Scalar>
 struct small_angle {
   /// Below this angle the series are used (same for every Scalar: see above).
   static constexpr Scalar theta = Scalar(0.25);
+  /// Below this angle small_sinc_cos takes three terms of each series: the first left out,
+  /// y⁶/720, is below ε/4 (2⁻⁸ in double, 2⁻¹⁰ in 80-bit long double, 2⁻³ in float).
+  static constexpr Scalar tiny = std::numeric_limits<Scalar>::digits > 53   ? Scalar(1.0 / 1024)
+                                 : std::numeric_limits<Scalar>::digits > 24 ? Scalar(1.0 / 256)
+                                                                            : Scalar(1.0 / 8);
 };
 
 /// c[0] + c[1] x + … + c[6] x⁶ for x = θ², by Estrin's scheme: the pairs c[2i] + c[2i+1] x
@@ -55,17 +61,32 @@ inline constexpr std::array<long double, 7> theta_minus_sin_over_cube_series{
 inline constexpr std::array<long double, 7> sinc_prime_over_theta_series{
     -1.0L / 3, 1.0L / 30, -1.0L / 840, 1.0L / 45360, -1.0L / 3991680, 1.0L / 518918400.0L, -1.0L / 93405312000.0L};
 
-/// sin y and cos y: below small_angle by their series (seven terms each: the truncation is
-/// below 1e-19 relative for |y| < ¼), else the library's. The splitting's flows turn by
-/// such small angles on ordinary steps, where the series cost half of sin and cos.
+/// sin y/y and cos y from x = y² < small_angle::theta², by their series: seven terms each
+/// (the truncation is below 1e-19 relative for |y| < ¼), three below small_angle::tiny. A
+/// rotation by the length of a vector takes x from the squared norm: no root, no division.
+template <class Scalar>
+void small_sinc_cos(Scalar x, Scalar& sinc_y, Scalar& c) {
+  constexpr Scalar tiny = small_angle<Scalar>::tiny;
+  if (x < tiny * tiny) {
+    sinc_y = Scalar(1) + x * (Scalar(sinc_series[1]) + x * Scalar(sinc_series[2]));
+    c = Scalar(1) + x * (Scalar(cos_series[1]) + x * Scalar(cos_series[2]));
+    return;
+  }
+  sinc_y = polynomial(x, sinc_series);
+  c = polynomial(x, cos_series);
+}
+
+/// sin y and cos y: below small_angle by their series (small_sinc_cos), else the library's.
+/// The splitting's flows turn by such small angles on ordinary steps, where the series cost
+/// half of sin and cos (and a slowly turning body's, by the three-term ones, a sixth).
 template <class Scalar>
 void sin_cos(Scalar y, Scalar& s, Scalar& c) {
   using std::cos;
   using std::sin;
   if (std::abs(y) < small_angle<Scalar>::theta) {
-    const Scalar x = y * y;
-    s = y * polynomial(x, sinc_series);
-    c = polynomial(x, cos_series);
+    Scalar sinc_y;
+    small_sinc_cos(y * y, sinc_y, c);
+    s = y * sinc_y;
     return;
   }
   s = sin(y);

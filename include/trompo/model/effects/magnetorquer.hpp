@@ -25,8 +25,10 @@
 // b = Λ_nᵀ B(t_{n+½}) (the cache); ∂/∂w of (R exp(ŵ) m) × b = b̂ R m̂. τ·Ω ≠ 0: magnetorquers do
 // work and change π (an external torque); the schemes' power balance is exact [W7].
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "trompo/errors.hpp"
 #include "trompo/lie/series.hpp"
@@ -112,8 +114,8 @@ class DipoleField {
   const CircularOrbit<Scalar>& orbit() const { return orbit_; }
 
   /// The field's two angles at a time t₀, the Greenwich angle θ and the argument of latitude u,
-  /// by their cosines and sines: from them B at a nearby time costs no trigonometric call
-  /// (angle addition, [W10]). A magnetorquer keeps the phase of its hold's start.
+  /// by their cosines and sines: the four trigonometric values from which the expansion about
+  /// t₀ is formed (a magnetorquer keeps it for its hold, [W16]).
   struct Phase {
     Scalar t = Scalar(0);          ///< t₀
     Scalar cos_theta = Scalar(1);  ///< cos θ(t₀)
@@ -132,24 +134,87 @@ class DipoleField {
   /// B at time t in inertial axes (tesla) [W10].
   Vector3 inertial(Scalar t) const { return inertial_of(phase(t)); }
 
-  /// B at time t from the phase p of a nearby time: cos(a + δ) = cos a cos δ − sin a sin δ with
-  /// δ = rate·(t − p.t) and cos δ, sin δ by detail::sin_cos's series (lie/series.hpp, below
-  /// small_angle = ¼, truncation below 1e-19). Farther from p.t (or without a phase) the
-  /// angles are evaluated afresh.
-  Vector3 inertial(Scalar t, const Phase& p) const {
+  /// The highest degree of the field's Taylor polynomial about a hold's start [W16].
+  static constexpr int max_degree = 8;
+  /// x_D for D = 1 … max_degree: the polynomial of degree D serves while ω_max|t − t₀| ≤ x_D,
+  /// where the first term it leaves out, 2|m₀|x^{D+1}/(D+1)!, is below 2⁻⁵⁶|m₀| ≤ 2⁻⁵⁶|B|
+  /// ([W16]: x_D = ((D+1)!·2⁻⁵⁷)^{1/(D+1)}, rounded down).
+  static constexpr std::array<double, max_degree + 1> degree_reach{
+      0.0, 3.72e-9, 3.46e-6, 1.13e-4, 9.64e-4, 4.13e-3, 1.19e-2, 2.69e-2, 5.14e-2};
+
+  /// B about a time t₀ as its Taylor polynomial B(t₀ + s) = Σ_{j ≤ D} B_j s^j [W16], the
+  /// coefficients exact from the phase at t₀; beyond its reach B is evaluated afresh.
+  struct Expansion {
+    Phase phase;                                  ///< the angles at t₀
+    int degree = 0;                               ///< D
+    Scalar reach = Scalar(0);                     ///< x_D/ω_max: the largest |s| it serves
+    std::array<Vector3, max_degree + 1> B{};      ///< B_j, inertial axes (tesla/s^j)
+  };
+
+  /// The expansion about t that serves |s| ≤ span, of the lowest degree that does (at most
+  /// max_degree; span = 0: max_degree) [W16]. With a = u(t) or θ(t) and ω = n or ω_E, the j-th
+  /// Taylor coefficient of cos(a + ωs) is ω^j/j! cos(a + jπ/2) (and of sin alike), so r̂(t + s)
+  /// and the dipole axis m(t + s) come as series from the four trigonometric values of
+  /// phase(t); d = m·r̂ and B = 3 d r̂ − m are their Cauchy products truncated at degree D.
+  Expansion expansion(Scalar t, Scalar span = Scalar(0)) const {
     using std::abs;
-    const Scalar dt = t - p.t;
-    const Scalar du = orbit_.rate() * dt, dth = Scalar(earth_rate) * dt;
-    const Scalar series = detail::small_angle<Scalar>::theta;
-    if (!p.valid || !(abs(du) < series) || !(abs(dth) < series)) return inertial(t);
-    Scalar cu, su, cth, sth;
-    detail::sin_cos(du, su, cu);
-    detail::sin_cos(dth, sth, cth);
-    return inertial_of({t, p.cos_theta * cth - p.sin_theta * sth, p.sin_theta * cth + p.cos_theta * sth,
-                        p.cos_u * cu - p.sin_u * su, p.sin_u * cu + p.cos_u * su, true});
+    // ω_max = 2n + ω_E, the highest frequency of B (r̂ r̂ doubles n; m turns at ω_E).
+    const Scalar w_max = Scalar(2) * orbit_.rate() + Scalar(earth_rate);
+    Expansion e;
+    e.phase = phase(t);
+    e.degree = max_degree;
+    if (span != Scalar(0))
+      while (e.degree > 1 && abs(span) * w_max <= Scalar(degree_reach[e.degree - 1])) --e.degree;
+    e.reach = Scalar(degree_reach[e.degree]) / w_max;
+    const int D = e.degree;
+    const Phase& p = e.phase;
+    std::array<Vector3, max_degree + 1> m, r;
+    Scalar fn(1), fw(1);  // n^j/j!, ω_E^j/j!
+    for (int j = 0; j <= D; ++j) {
+      const auto [cu, su] = quarter_turns(p.cos_u, p.sin_u, j);          // cos, sin of u + jπ/2
+      const auto [ct, st] = quarter_turns(p.cos_theta, p.sin_theta, j);  // of θ + jπ/2
+      r[j] = fn * orbit_.radial_of(cu, su);
+      m[j] = fw * Vector3(ct * m0_.x() - st * m0_.y(), st * m0_.x() + ct * m0_.y(), j == 0 ? m0_.z() : Scalar(0));
+      fn *= orbit_.rate() * Scalar(inverse_of[j + 1]);
+      fw *= Scalar(earth_rate) * Scalar(inverse_of[j + 1]);
+    }
+    std::array<Scalar, max_degree + 1> d3;  // 3 d_k
+    for (int k = 0; k <= D; ++k) {
+      Scalar d(0);  // d_k = Σ_{i ≤ k} m_i·r_{k−i}
+      for (int i = 0; i <= k; ++i) d += m[i].dot(r[k - i]);
+      d3[k] = Scalar(3) * d;
+    }
+    for (int k = 0; k <= D; ++k) {
+      Vector3 b = Vector3::Zero();  // (3 d r̂)_k
+      for (int i = 0; i <= k; ++i) b += d3[i] * r[k - i];
+      e.B[k] = b - m[k];
+    }
+    return e;
+  }
+
+  /// B at time t from the expansion e: Horner's rule within its reach, else afresh.
+  Vector3 inertial(Scalar t, const Expansion& e) const {
+    using std::abs;
+    const Scalar s = t - e.phase.t;
+    if (!e.phase.valid || !(abs(s) <= e.reach)) return inertial(t);
+    Vector3 b = e.B[e.degree];
+    for (int j = e.degree - 1; j >= 0; --j) b = b * s + e.B[j];
+    return b;
   }
 
  private:
+  /// 1/j for j = 1 … max_degree + 1 (entry 0 unused).
+  static constexpr std::array<long double, max_degree + 2> inverse_of{
+      0.0L, 1.0L, 1.0L / 2, 1.0L / 3, 1.0L / 4, 1.0L / 5, 1.0L / 6, 1.0L / 7, 1.0L / 8, 1.0L / 9};
+  /// cos(a + jπ/2), sin(a + jπ/2) from cos a, sin a.
+  static std::pair<Scalar, Scalar> quarter_turns(Scalar c, Scalar s, int j) {
+    switch (j % 4) {
+      case 0: return {c, s};
+      case 1: return {-s, c};
+      case 2: return {-c, -s};
+      default: return {s, -c};
+    }
+  }
   /// B from the angles' cosines and sines [W10].
   Vector3 inertial_of(const Phase& p) const {
     // The dipole axis, Earth-fixed → inertial: a rotation by θ about z.
@@ -185,12 +250,16 @@ class Magnetorquer {
   /// The held dipole (A m², body axes): set between steps, by the sampled driver (hold()).
   Vector3 dipole = Vector3::Zero();
 
-  /// Holds the dipole m from the sample time t on, and keeps the field's phase at t: the steps
-  /// of the hold evaluate B by angle addition from it instead of four trigonometric calls (the
-  /// same B to round-off; setting `dipole` alone is as correct, B is then evaluated afresh).
-  void hold(Scalar t, const Vector3& m) {
+  /// Holds the dipole m from the sample time t on, and keeps the field's expansion about t
+  /// [W16]: the steps of the hold evaluate B from its polynomial instead of four trigonometric
+  /// calls (the same B to round-off; setting `dipole` alone is as correct, B is then
+  /// evaluated afresh).
+  void hold(Scalar t, const Vector3& m) { hold(m, field_.expansion(t)); }
+  /// The same with the expansion about the sample time already at hand (the sampled driver
+  /// forms it once for the sample's field and the hold).
+  void hold(const Vector3& m, const typename DipoleField<Scalar>::Expansion& e) {
     dipole = m;
-    phase_ = field_.phase(t);
+    expansion_ = e;
   }
 
   /// The field.
@@ -206,7 +275,7 @@ class Magnetorquer {
   };
   /// The field at the mid time, in frame n.
   Cache cache(const Matrix3& Lambda_n, Scalar t_mid) const {
-    return {Lambda_n.transpose() * field_.inertial(t_mid, phase_)};
+    return {Lambda_n.transpose() * field_.inertial(t_mid, expansion_)};
   }
 
   /// (R m) × b.
@@ -223,7 +292,7 @@ class Magnetorquer {
  private:
   DipoleField<Scalar> field_;
   Vector3 max_dipole_;
-  typename DipoleField<Scalar>::Phase phase_{};  ///< the field's phase at the hold's start
+  typename DipoleField<Scalar>::Expansion expansion_{};  ///< the field about the hold's start
 };
 
 }  // namespace trompo

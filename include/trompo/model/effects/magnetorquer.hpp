@@ -24,6 +24,10 @@
 // The torque. τ_b = m × Λᵀ B(t): in frame n at Λ_n R it is R(m × Rᵀb) = (Rm) × b with
 // b = Λ_nᵀ B(t_{n+½}) (the cache); ∂/∂w of (R exp(ŵ) m) × b = b̂ R m̂. τ·Ω ≠ 0: magnetorquers do
 // work and change π (an external torque); the schemes' power balance is exact [W7].
+//
+// Inside a hold [W16]. hold(t, m) keeps the field's Taylor expansion about t (DipoleField::
+// expansion): the kicks and stages of the hold read B from a polynomial of low degree, with
+// the first term left out below 2⁻⁵⁶|B|, instead of four trigonometric calls each.
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
@@ -31,7 +35,6 @@
 #include <utility>
 
 #include "trompo/errors.hpp"
-#include "trompo/lie/series.hpp"
 #include "trompo/lie/so3.hpp"
 #include "trompo/model/effects/effect.hpp"
 

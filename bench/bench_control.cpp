@@ -8,7 +8,10 @@
 //                                     the fewest steps a sample that turn the body by at most
 //                                     θ at the sample's rate, FixedSteps::max_angle), or odeint's dopri5
 //                                     restarted at each sample at abs = rel = tol (a SciPy
-//                                     user's solve_ivp loop). CPU time per iteration = the
+//                                     user's solve_ivp loop), its first step a guess of T/1000,
+//                                     T/10 or T (",first:T/10", ",first:T"; the controller then
+//                                     shrinks or grows it): the first guess decides most of a
+//                                     short hold's steps, so each tolerance is timed with all three. CPU time per iteration = the
 //                                     run's. Counters: err_rot (‖Λ − Λref‖_F at the end),
 //                                     err_pi (max ‖π − π0‖/‖π0‖ over the samples, where no
 //                                     external torque acts; else 0), steps.
@@ -162,11 +165,12 @@ struct OdeintRK4 {
 /// Between samples: odeint's dopri5 from t_k to t_{k+1}, restarted at each sample.
 struct OdeintDopri5 {
   double tol;
+  double first = 1e-3;  ///< the first step's guess, as a fraction of the hold
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& st, Traj& s, double t_next, Obs&&, SampledSummary<double>& sum) const {
     bench::QuaternionOde<typename StepperT::Scene> ode{&st.scene()};
     bench::OdeState x = bench::to_ode(s);
-    sum.steps += bench::odeint_dopri5(ode, x, s.time, t_next, tol, [](const bench::OdeState&, double) {});
+    sum.steps += bench::odeint_dopri5(ode, x, s.time, t_next, tol, [](const bench::OdeState&, double) {}, first);
     s.rotation = bench::from_ode(x, t_next).rotation;
     s.omega = V(x[4], x[5], x[6]);
     s.time = t_next;
@@ -219,8 +223,8 @@ Outcome rk4_run(int m, bool watch) {
   return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintRK4{m}, watch);
 }
 template <class Case>
-Outcome dopri5_run(double tol, bool watch) {
-  return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintDopri5{tol}, watch);
+Outcome dopri5_run(double tol, bool watch, double first = 1e-3) {
+  return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintDopri5{tol, first}, watch);
 }
 
 /// The case's reference (computed on first use) and its distance to an independent run.
@@ -289,10 +293,15 @@ void register_case() {
         [th](bool w) { return splitting_run<Case>(SplittingMethod::kahan_li_9, 1, w, th); });
   }
   for (int m : mrk) add("odeint-rk4", "m:" + std::to_string(m), [m](bool w) { return rk4_run<Case>(m, w); });
-  // dopri5's tolerances in decades, and in half decades (3e-k) where the cases cross their bounds.
+  // dopri5's tolerances in decades, and in half decades (3e-k) where the cases cross their bounds;
+  // each with the first step guessed at T/1000 (a cautious guess: a ramp of ~5 steps, each
+  // 5× the last, up to the hold), T/10 and T (solve_ivp estimates its own from the derivatives
+  // at the hold's start).
   for (const char* tol_text : {"1e-6", "1e-8", "1e-9", "1e-10", "1e-11", "1e-12", "3e-13", "1e-13", "3e-14", "1e-14"}) {
     const double tol = std::stod(tol_text);
     add("odeint-dopri5", std::string("tol:") + tol_text, [tol](bool w) { return dopri5_run<Case>(tol, w); });
+    add("odeint-dopri5", std::string("tol:") + tol_text + ",first:T", [tol](bool w) { return dopri5_run<Case>(tol, w, 1.0); });
+    add("odeint-dopri5", std::string("tol:") + tol_text + ",first:T/10", [tol](bool w) { return dopri5_run<Case>(tol, w, 0.1); });
   }
 }
 

@@ -85,12 +85,12 @@ void odeint_rk4(const QuaternionOde<Scene>& ode, OdeState& x, double t0, double 
 /// steps.
 template <class Scene, class Observer>
 long odeint_dopri5(const QuaternionOde<Scene>& ode, OdeState& x, double t0, double t1, double tol,
-                   Observer&& observe) {
+                   Observer&& observe, double first_fraction = 1e-3) {
   namespace odeint = boost::numeric::odeint;
   auto stepper = odeint::make_controlled(tol, tol, odeint::runge_kutta_dopri5<OdeState>());
   long steps = 0;
-  // A first guess of dt; the controller corrects it on the first step.
-  const double dt0 = 1e-3 * (t1 - t0);
+  // A first guess of dt (a fraction of the span); the controller corrects it on the first step.
+  const double dt0 = first_fraction * (t1 - t0);
   odeint::integrate_adaptive(stepper, std::cref(ode), x, t0, t1, dt0, [&](const OdeState& y, double t) {
     if (t > t0) {
       ++steps;

@@ -740,6 +740,12 @@ TEST_CASE("magnetorquer: the field from the hold's Taylor expansion", "[control]
   CHECK(afresh == 72);
   // Without an expansion (a dipole set directly, not held) B is evaluated afresh: exactly inertial(t).
   CHECK(field.inertial(321.0, Field::Expansion{}) == field.inertial(321.0));
+  // An orbit so fast that n^j/j! overflows (r = 1e-90 m): no polynomial, B afresh.
+  const Field fast(CircularOrbit<double>(1e-90));
+  const Field::Expansion ef = fast.expansion(0.0, 0.25);
+  CHECK(ef.reach < 0);
+  CHECK(detail::all_finite(fast.inertial(0.0)));
+  CHECK(fast.inertial(0.0, ef) == fast.inertial(0.0));
   // A magnetorquer's hold keeps the expansion about the sample: its cache reads B from it.
   Magnetorquer<double> mtq(field);
   mtq.hold(100.0, Vec3(0.1, 0, 0));

@@ -150,7 +150,7 @@ class DipoleField {
   struct Expansion {
     Phase phase;                                  ///< the angles at t₀
     int degree = 0;                               ///< D
-    Scalar reach = Scalar(0);                     ///< x_D/ω_max: the largest |s| it serves
+    Scalar reach = Scalar(0);                     ///< x_D/ω_max: the largest |s| it serves (< 0: none)
     std::array<Vector3, max_degree + 1> B{};      ///< B_j, inertial axes (tesla/s^j)
   };
 
@@ -192,6 +192,9 @@ class DipoleField {
       for (int i = 0; i <= k; ++i) b += d3[i] * r[k - i];
       e.B[k] = b - m[k];
     }
+    // An orbit so fast that n^j/j! overflows: no polynomial (every B afresh, as without one).
+    for (int k = 0; k <= D; ++k)
+      if (!detail::all_finite(e.B[k])) e.reach = Scalar(-1);
     return e;
   }
 

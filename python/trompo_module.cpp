@@ -264,6 +264,12 @@ py::tuple simulate_flags(const std::map<std::string, std::string>& flags, const 
 /// 3×3 row-major from an array already checked to be (3, 3).
 M3 matrix_of(const Array& a) { return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.data()); }
 
+/// mrp-pd's target rotation, a (3, 3) array; ValueError naming `target` otherwise.
+M3 target_of(const Array& target) {
+  if (!(target.ndim() == 2 && target.shape(0) == 3 && target.shape(1) == 3)) throw py::value_error("target: expected (3, 3)");
+  return matrix_of(target);
+}
+
 /// The wheels of a trompo.Spacecraft into the Config: `wheels` (N, 5) rows axis(3), Js, speed0,
 /// `limits` (N, 2) max_torque, max_speed; each checked as the library checks it (naming the
 /// wheel), then the control flags again (mrp-pd needs axes spanning 3-D).
@@ -300,10 +306,7 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
       throw py::value_error(e.what());
     }
   }
-  if (target) {
-    if (!(target->ndim() == 2 && target->shape(0) == 3 && target->shape(1) == 3)) throw py::value_error("target: expected (3, 3)");
-    c.control.target_matrix = matrix_of(*target);
-  }
+  if (target) c.control.target_matrix = target_of(*target);
   auto shape = [](const Array& a) {
     std::string s = "(";
     for (py::ssize_t k = 0; k < a.ndim(); ++k) s += (k ? ", " : "") + std::to_string(a.shape(k));
@@ -554,8 +557,7 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
                       const py::object& controller, const py::object& memory, const py::object& events) {
   if (!(rotation.ndim() == 2 && rotation.shape(0) == 3 && rotation.shape(1) == 3)) throw py::value_error("rotation: expected (3, 3)");
   if (!(omega.ndim() == 1 && omega.shape(0) == 3)) throw py::value_error("omega: expected (3,)");
-  if (target && !(target->ndim() == 2 && target->shape(0) == 3 && target->shape(1) == 3))
-    throw py::value_error("target: expected (3, 3)");
+  const std::optional<M3> target_matrix = target ? std::optional<M3>(target_of(*target)) : std::nullopt;
   py::object raised = py::none();  // the controller's exception (set with the GIL held)
   double raised_at = std::numeric_limits<double>::quiet_NaN();  // its sample's t_k
   Config c;
@@ -568,7 +570,7 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
     }
     c.rotation_matrix = matrix_of(rotation);
     c.omega = V3(omega.data()[0], omega.data()[1], omega.data()[2]);
-    if (target) c.control.target_matrix = matrix_of(*target);
+    if (target_matrix) c.control.target_matrix = target_matrix;
     if (!controller.is_none()) {
       // Held by pointer (the caller keeps them alive for the run): copies of the function
       // touch no Python reference count without the GIL.

@@ -337,7 +337,7 @@ py::dict ensemble_flags(const std::map<std::string, std::string>& flags, const A
       if (rotation.ndim() == 2) {
         const V3 x(r[3 * i], r[3 * i + 1], r[3 * i + 2]);
         if (!trompo::detail::all_finite(x)) throw invalid_input("rotation: not finite " + trompo::detail::to_text(x));
-        in.rotation.push_back(trompo::SO3d::exp(x));
+        in.rotation.push_back(attitude_of(x, "rotation"));
       } else {
         in.rotation.push_back(trompo::SO3d::from_matrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r + 9 * i)));
       }

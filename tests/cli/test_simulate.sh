@@ -199,6 +199,10 @@ printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,1,2,3\n0,0,0,1
 "$sim" --case ht1 --ensemble "$tmp/huge.csv" >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
 check "ensemble: a member whose energy overflows is exit 2, named by line" \
   '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && grep -qF "huge.csv:3: omega1,2,3: the initial energy H is not finite" "$tmp/bad.err"'
+printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,1,2,3\n1e300,0,0,1,2,3\n' >"$tmp/far.csv"
+"$sim" --case ht1 --ensemble "$tmp/far.csv" >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
+check "ensemble: a member whose rotation vector overflows is exit 2, named by line" \
+  '[ $rc -eq 2 ] && [ ! -s "$tmp/bad.csv" ] && grep -qF "far.csv:3: rotation1,2,3: the rotation vector" "$tmp/bad.err" && grep -qF "length overflows" "$tmp/bad.err"'
 # Asked for by name, a negative damping runs and feeds energy in (H grows at every row).
 "$sim" --case ht1 --damping -1 --allow-negative-damping --t-end 1 --every 100 >"$tmp/pump.csv" 2>"$tmp/pump.err"; rc=$?
 check "--allow-negative-damping: runs, H increases monotonically" \

@@ -506,7 +506,7 @@ inline CliController make_controller(const Config& c) {
     ctrl.kind = 1;
     ctrl.pd.K = k.K;
     ctrl.pd.P = k.P;
-    ctrl.pd.target = k.target_matrix ? *k.target_matrix : trompo::SO3d::exp(k.target.value_or(V3::Zero())).matrix();
+    ctrl.pd.target = k.target_matrix ? *k.target_matrix : attitude_of(k.target.value_or(V3::Zero()), "--target-rotation").matrix();
     ctrl.pd.validate();
   } else if (k.controller == "bdot") {
     ctrl.kind = 2;
@@ -745,7 +745,7 @@ int run_control(const Config& c, Out& out) {
   using namespace trompo;
   const ControlScene scene = control_scene(c);
   State<double> s0;
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
   s0.omega = c.omega;
   int code = 0;
   const bool known = RegisteredSchemes::visit(c.scheme, [&](auto entry) {
@@ -878,16 +878,12 @@ decltype(auto) with_scene_of(const Config& c, const trompo::RigidBody<double>& b
   return f(HeavyTop<double>(body, gravity));
 }
 
-/// The initial state on its scene, before any row: a rotation vector whose length
-/// overflows has no attitude exp(R^) (its quaternion is NaN), and an Omega whose energy H or
-/// momentum pi overflows for this inertia has no first row; either would fail the first
-/// step as "non-finite". Both are bad input: throws invalid_input naming the field.
+/// The initial state on its scene, before any row: an Omega whose energy H or momentum pi
+/// overflows for this inertia has no first row, and would fail the first step as
+/// "non-finite". Bad input: throws invalid_input naming the field. (A rotation vector whose
+/// length overflows is refused where it is read, attitude_of.)
 template <class Scene>
-void check_initial_state(const Scene& scene, const trompo::State<double>& s, const std::string& rotation_field,
-                         const std::string& omega_field) {
-  if (!s.rotation.unit_quaternion().coeffs().allFinite())
-    throw invalid_input(rotation_field + ": the rotation vector's length overflows (no attitude exp(R^)); give it "
-                        "modulo 2*pi");
+void check_initial_state(const Scene& scene, const trompo::State<double>& s, const std::string& omega_field) {
   const double H = scene.energy(s);
   const V3 pi = scene.spatial_momentum(s);
   if (!std::isfinite(H) || !pi.allFinite())
@@ -901,19 +897,19 @@ void validate(const Config& c) {
   State<double> s0;
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
   s0.omega = c.omega;
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
   if (!known_scheme(c.scheme)) throw invalid_input("--scheme: unknown scheme '" + c.scheme + "'");
   if (c.control.on()) {  // control in the loop: its own scene (the hub's inertia, the orbit)
-    check_initial_state(control_scene(c), s0, "--rotation", "--omega");
+    check_initial_state(control_scene(c), s0, "--omega");
     (void)make_controller(c);
     return;
   }
   if (c.code_torques()) {  // torque laws as code (trompo.TorqueLaw): their own scene
     check_code_torques(c);
-    check_initial_state(code_torque_scene(c, body), s0, "rotation", "omega");
+    check_initial_state(code_torque_scene(c, body), s0, "omega");
   }
   const UniformGravity<double> gravity(c.mgl, c.com, c.up);
   // Effects are validated here too, before any row is written.
@@ -923,7 +919,7 @@ void validate(const Config& c) {
   const Rotor<double> rotor(c.rotor);
   (void)gravity, (void)damping, (void)body_torque, (void)space_torque, (void)rotor;
   if (c.gravity_gradient) (void)GravityGradient<double>(body, *c.gravity_gradient, c.orbit_normal, c.radial);
-  with_scene_of(c, body, c.mgl, false, [&](const auto& scene) { check_initial_state(scene, s0, "--rotation", "--omega"); });
+  with_scene_of(c, body, c.mgl, false, [&](const auto& scene) { check_initial_state(scene, s0, "--omega"); });
   // ---- splitting: method and projection against the scene, before any output (an
   // ensemble's members are checked again on their own scenes: validate_member) ----
   if (c.scheme == "splitting")
@@ -966,7 +962,7 @@ int simulate_any(const Config& c, Out& out) {
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
   State<double> s0;
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : SO3d::exp(c.rotation);
+  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
   s0.omega = c.omega;
   if (c.scheme == "exact") return run_exact(c, body, s0, out);
   if (c.control.on()) return run_control(c, out);  // control in the loop (one run or an ensemble of them)
@@ -1022,7 +1018,7 @@ void validate_member(const Config& c, const EnsembleInput& in, std::size_t i) {
   s.validate();
   if (c.control.on()) {  // a closed loop: the control scene with the member's inertia
     if (!in.mgl.empty()) throw invalid_input("column mgl: a control run's scene has no gravity");
-    check_initial_state(member_control_scene(c, in, i), s, "rotation1,2,3", "omega1,2,3");
+    check_initial_state(member_control_scene(c, in, i), s, "omega1,2,3");
     return;
   }
   const RigidBody<double> body = member_body(c, in, i);
@@ -1030,7 +1026,7 @@ void validate_member(const Config& c, const EnsembleInput& in, std::size_t i) {
   const UniformGravity<double> gravity(mgl, c.com, c.up);
   (void)gravity;
   with_scene_of(c, body, mgl, !in.mgl.empty(),
-                [&](const auto& scene) { check_initial_state(scene, s, "rotation1,2,3", "omega1,2,3"); });
+                [&](const auto& scene) { check_initial_state(scene, s, "omega1,2,3"); });
   if (c.scheme == "splitting")
     with_scene_of(c, body, mgl, !in.mgl.empty(), [&](const auto& scene) { check_splitting(c, scene); });
 }
@@ -1205,7 +1201,7 @@ EnsembleInput read_ensemble(const Config& c) {
       const auto k = static_cast<std::size_t>(column_of[f]);
       v[k] = parse_number(where() + known[k], fields[f]);
     }
-    in.rotation.push_back(trompo::SO3d::exp(V3(v[0], v[1], v[2])));
+    in.rotation.push_back(attitude_of(V3(v[0], v[1], v[2]), where() + "rotation1,2,3"));
     in.omega.emplace_back(v[3], v[4], v[5]);
     if (seen[6]) in.mgl.push_back(v[6]);
     if (seen[7]) {

@@ -57,6 +57,15 @@ using trompo::invalid_input;
 using V3 = Eigen::Vector3d;
 using M3 = Eigen::Matrix3d;
 
+/// exp(r̂) of a rotation vector given as input. Throws invalid_input naming `field` when its
+/// length overflows (|r|² not finite, |r| ≳ 1e154): a turn that large has no meaningful
+/// attitude, and SO3::exp gives a NaN quaternion there.
+inline trompo::SO3d attitude_of(const V3& r, const std::string& field) {
+  if (!std::isfinite(r.squaredNorm()))
+    throw invalid_input(field + ": the rotation vector's length overflows (no attitude exp(R^)); give it modulo 2*pi");
+  return trompo::SO3d::exp(r);
+}
+
 /// The names --scheme takes: every registered scheme, and the closed forms ("exact").
 inline std::string scheme_names() {
   std::string names;

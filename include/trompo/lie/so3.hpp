@@ -83,12 +83,7 @@ class SO3 {
 
   /// exp(x̂), eq. (8), as a rotation: quaternion (cos θ/2, sin(θ/2)/θ x).
   static SO3 exp(const Vector3& x) {
-    // |x| by the stable norm where its square overflows (|x| ≳ 1e154 in double): such a turn
-    // is meaningless to ε, but it is a rotation, not NaN.
-    const Scalar n2 = x.squaredNorm();
-    using std::sqrt;
-    const Scalar theta = std::isfinite(static_cast<double>(n2)) ? Scalar(sqrt(n2)) : x.stableNorm();
-    const detail::HalfAngle<Scalar> c = detail::half_angle(theta);
+    const detail::HalfAngle<Scalar> c = detail::half_angle(x.norm());
     const Vector3 v = x * (c.kappa / 2);  // sin(θ/2)/θ = ½ sinc(θ/2)
     return SO3(Quaternion(c.cos_half, v.x(), v.y(), v.z()), NoCheck{});
   }

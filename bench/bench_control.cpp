@@ -9,7 +9,7 @@
 //                                     θ at the sample's rate, FixedSteps::max_angle), or odeint's dopri5
 //                                     restarted at each sample at abs = rel = tol (a SciPy
 //                                     user's solve_ivp loop), its first step a guess of T/1000,
-//                                     T/10 or T (",first:T/10", ",first:T"; the controller then
+//                                     T/10 or T (",first:0.1T", ",first:T"; the controller then
 //                                     shrinks or grows it): the first guess decides most of a
 //                                     short hold's steps, so each tolerance is timed with all three. CPU time per iteration = the
 //                                     run's. Counters: err_rot (‖Λ − Λref‖_F at the end),
@@ -301,7 +301,7 @@ void register_case() {
     const double tol = std::stod(tol_text);
     add("odeint-dopri5", std::string("tol:") + tol_text, [tol](bool w) { return dopri5_run<Case>(tol, w); });
     add("odeint-dopri5", std::string("tol:") + tol_text + ",first:T", [tol](bool w) { return dopri5_run<Case>(tol, w, 1.0); });
-    add("odeint-dopri5", std::string("tol:") + tol_text + ",first:T/10", [tol](bool w) { return dopri5_run<Case>(tol, w, 0.1); });
+    add("odeint-dopri5", std::string("tol:") + tol_text + ",first:0.1T", [tol](bool w) { return dopri5_run<Case>(tol, w, 0.1); });
   }
 }
 

@@ -745,7 +745,7 @@ int run_control(const Config& c, Out& out) {
   using namespace trompo;
   const ControlScene scene = control_scene(c);
   State<double> s0;
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
+  s0.rotation = initial_attitude(c);
   s0.omega = c.omega;
   int code = 0;
   const bool known = RegisteredSchemes::visit(c.scheme, [&](auto entry) {
@@ -897,7 +897,7 @@ void validate(const Config& c) {
   State<double> s0;
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
+  s0.rotation = initial_attitude(c);
   s0.omega = c.omega;
   s0.validate();
   // Validate the scheme name and the gravity parameters before writing anything.
@@ -962,7 +962,7 @@ int simulate_any(const Config& c, Out& out) {
   const RigidBody<double> body =
       c.unphysical_ok ? RigidBody<double>(c.inertia, allow_unphysical_inertia) : RigidBody<double>(c.inertia);
   State<double> s0;
-  s0.rotation = c.rotation_matrix ? SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
+  s0.rotation = initial_attitude(c);
   s0.omega = c.omega;
   if (c.scheme == "exact") return run_exact(c, body, s0, out);
   if (c.control.on()) return run_control(c, out);  // control in the loop (one run or an ensemble of them)

@@ -196,6 +196,12 @@ struct Config {
   bool code_torques() const { return body_law.on() || space_law.on(); }
 };
 
+/// The initial attitude: the given rotation matrix (trompo.State), else exp(R^) of --rotation
+/// (attitude_of: a vector whose length overflows is refused, naming the flag).
+inline trompo::SO3d initial_attitude(const Config& c) {
+  return c.rotation_matrix ? trompo::SO3d::from_matrix(*c.rotation_matrix) : attitude_of(c.rotation, "--rotation");
+}
+
 inline double parse_number(const std::string& flag, const std::string& text) {
   errno = 0;
   char* end = nullptr;

@@ -177,7 +177,8 @@ class DipoleField {
       const auto [cu, su] = quarter_turns(p.cos_u, p.sin_u, j);          // cos, sin of u + jπ/2
       const auto [ct, st] = quarter_turns(p.cos_theta, p.sin_theta, j);  // of θ + jπ/2
       r[j] = fn * orbit_.radial_of(cu, su);
-      m[j] = fw * Vector3(ct * m0_.x() - st * m0_.y(), st * m0_.x() + ct * m0_.y(), j == 0 ? m0_.z() : Scalar(0));
+      m[j] = fw * dipole_axis(ct, st);
+      if (j > 0) m[j].z() = Scalar(0);  // the axis's z, fixed in the Earth, is constant
       fn *= orbit_.rate() * Scalar(inverse_of[j + 1]);
       fw *= Scalar(earth_rate) * Scalar(inverse_of[j + 1]);
     }
@@ -221,10 +222,14 @@ class DipoleField {
       default: return {s, -c};
     }
   }
+  /// The dipole axis at the Greenwich angle θ, from cos θ and sin θ: Earth-fixed → inertial, a
+  /// rotation by θ about z.
+  Vector3 dipole_axis(Scalar cos_theta, Scalar sin_theta) const {
+    return Vector3(cos_theta * m0_.x() - sin_theta * m0_.y(), sin_theta * m0_.x() + cos_theta * m0_.y(), m0_.z());
+  }
   /// B from the angles' cosines and sines [W10].
   Vector3 inertial_of(const Phase& p) const {
-    // The dipole axis, Earth-fixed → inertial: a rotation by θ about z.
-    const Vector3 m(p.cos_theta * m0_.x() - p.sin_theta * m0_.y(), p.sin_theta * m0_.x() + p.cos_theta * m0_.y(), m0_.z());
+    const Vector3 m = dipole_axis(p.cos_theta, p.sin_theta);
     const Vector3 r = orbit_.radial_of(p.cos_u, p.sin_u);
     return Scalar(3) * m.dot(r) * r - m;  // m₀ carries the factor (R_E/r)³
   }

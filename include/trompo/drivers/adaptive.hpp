@@ -780,7 +780,7 @@ constexpr bool is_processed() {
 /// after each accepted step (LieHermite(a, b) is its interpolant; an observer that also
 /// takes a third argument gets the AdaptiveSummary so far); sink(index, state,
 /// terminal) for each event found. Throws invalid_input on bad options, a non-finite t_end
-/// or state, or bad events, before any step. Step failures never throw: see the summary.
+/// or state, bad events, or wheels with viscous friction [W17], before any step. Step failures never throw: see the summary.
 template <class Stepper, class StateT, class Observer = NoStepObserver, class Sink = NoEventSink>
   requires std::derived_from<StateT, State<typename Stepper::Scalar>>
 AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& stepper, StateT& state,
@@ -794,6 +794,7 @@ AdaptiveSummary<typename Stepper::Scalar> integrate_adaptive(const Stepper& step
                 "integrate_adaptive: the processed composition's processor is tied to h (a change of h costs "
                 "P_h'∘P_h⁻¹, 24 base steps, and its outputs would depend on the step history): run it at fixed h "
                 "with integrate(), or adapt a ComposedStepper");
+  detail::refuse_wheel_friction(stepper, "integrate_adaptive");
   if constexpr (detail::needs_trajectory<Stepper, StateT>()) {
     auto traj = stepper.start(state);
     const AdaptiveSummary<Scalar> sum =

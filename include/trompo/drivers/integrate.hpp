@@ -205,6 +205,38 @@ struct Integrator {
 }  // namespace detail
 
 namespace detail {
+/// Throws invalid_input if the stepper's scene has wheels with viscous friction [W17]: its
+/// flow is split around each step by integrate_sampled (FixedSteps) only, so `driver` (the
+/// caller's name) would leave it out.
+template <class Stepper>
+void refuse_wheel_friction(const Stepper& stepper, const char* driver) {
+  if constexpr (requires { stepper.scene().wheel_friction(); })
+    if (stepper.scene().wheel_friction())
+      detail::fail(driver, ": the wheels have viscous friction, which only integrate_sampled with FixedSteps "
+                   "applies (split around each step, docs/theory.md [W17]); ", driver, " would leave it out");
+}
+
+/// The number of steps of integrate's grid from t0 to t_end at h: ceil(span/h), less a few ulps so
+/// that a span of a whole number of steps up to round-off does not end with a vanishing step. The
+/// round-off of span is that of the times, ε·max(|t0|, |t_end|), which far from t = 0 exceeds
+/// ε·span (a hold of the sampled driver from t = 16.1 to 16.2 at h = 0.02 has span/h = 5 + 7e-14).
+/// Throws invalid_input for too many steps, or an h below the time resolution at the far end
+/// (the grid times would not be distinct). span = t_end − t0 is non-zero, of h's sign.
+template <class Scalar>
+std::int64_t grid_steps(Scalar t0, Scalar t_end, Scalar h) {
+  using std::abs, std::ceil;
+  const Scalar ratio = (t_end - t0) / h;  // > 0
+  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
+  const Scalar times = (abs(t0) > abs(t_end) ? abs(t0) : abs(t_end)) / abs(h);
+  const Scalar reach = ratio > times ? ratio : times;
+  const Scalar n_real = ceil(ratio - Scalar(8) * eps * (reach > Scalar(1) ? reach : Scalar(1)));
+  if (!(n_real < Scalar(9.0e18))) detail::fail("integrate: ", ratio, " steps of h = ", h, " is too many");
+  if (!detail::resolves(h, t0, t_end))
+    detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ",
+                 abs(t0) > abs(t_end) ? abs(t0) : abs(t_end));
+  return n_real < Scalar(1) ? 1 : static_cast<std::int64_t>(n_real);
+}
+
 /// Whether a plain State is integrated with a stepper whose scheme carries memory.
 template <class Stepper, class StateT>
 constexpr bool needs_trajectory() {
@@ -226,7 +258,8 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
 /// the grid, the recovery rule and the observer). Throws invalid_input, before taking
 /// any step, if h is zero or not finite, if t_end is not finite or behind the start
 /// (in the direction of h), if the state is not finite, or if h is below the time
-/// resolution at t_end. Numerical failures never throw: they are in the summary.
+/// resolution at t_end, or if the scene's wheels have viscous friction (integrate_sampled
+/// applies it). Numerical failures never throw: they are in the summary.
 template <class Stepper, class StateT, class Observer = NoObserver>
   requires std::derived_from<StateT, State<typename Stepper::Scalar>>
 IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper, StateT& state,
@@ -235,6 +268,7 @@ IntegrationSummary<typename Stepper::Scalar> integrate(const Stepper& stepper, S
                                                        Observer&& observer = {},
                                                        IntegrateOptions options = {}) {
   using Scalar = typename Stepper::Scalar;
+  detail::refuse_wheel_friction(stepper, "integrate");
   if constexpr (detail::needs_trajectory<Stepper, StateT>()) {
     // A plain State with a stepper whose scheme has memory: a fresh trajectory for this call.
     auto traj = stepper.start(state);
@@ -288,22 +322,7 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
   if constexpr (observed) observer(static_cast<const State<Scalar>&>(state));
   if (span == Scalar(0)) return sum;
 
-  // Number of steps: ceil(span/h), less a few ulps so that a span of a whole number
-  // of steps up to round-off does not end with a vanishing step. The round-off of span is
-  // that of the times, ε·max(|t0|, |t_end|), which far from t = 0 exceeds ε·span (a hold
-  // of the sampled driver from t = 16.1 to 16.2 at h = 0.02 has span/h = 5 + 7e-14).
-  const Scalar ratio = span / h;  // > 0
-  const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-  const Scalar times = (abs(t0) > abs(t_end) ? abs(t0) : abs(t_end)) / abs(h);
-  const Scalar reach = ratio > times ? ratio : times;
-  const Scalar n_real = ceil(ratio - Scalar(8) * eps * (reach > Scalar(1) ? reach : Scalar(1)));
-  if (!(n_real < Scalar(9.0e18)))
-    detail::fail("integrate: ", ratio, " steps of h = ", h, " is too many");
-  const std::int64_t n = n_real < Scalar(1) ? 1 : static_cast<std::int64_t>(n_real);
-  // Every grid time must be distinct: h above the time resolution at the far end.
-  if (!detail::resolves(h, t0, t_end))
-    detail::fail("integrate: time step h = ", h, " is below the time resolution at t = ",
-                 abs(t0) > abs(t_end) ? abs(t0) : abs(t_end));
+  const std::int64_t n = grid_steps(t0, t_end, h);
 
   Integrator<Stepper, StateT, defers_output<Stepper, StateT, Observer>()> run{stepper, state, sum,
                                                                                 options.max_halvings};

@@ -150,6 +150,10 @@ struct AdaptiveSteps {
 namespace detail {
 template <class E, class Scene>
 struct scene_has;
+template <class Between>
+struct is_fixed_steps : std::false_type {};
+template <class Scalar>
+struct is_fixed_steps<FixedSteps<Scalar>> : std::true_type {};
 template <class E, class Scalar, class... Effects>
 struct scene_has<E, Scene<Scalar, Effects...>> : std::bool_constant<(std::is_same_v<E, Effects> || ...)> {};
 }  // namespace detail
@@ -233,6 +237,47 @@ void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const 
   }
 }
 
+namespace detail {
+/// [W17] A hold of fixed steps with the wheels' viscous friction split around each step (Strang):
+/// F(Δ/2) ∘ Φ_Δ ∘ F(Δ/2), F the exact friction flow (ReactionWheels::friction_flow) and Φ the
+/// stepper's step (integrate's recovery inside the interval). The grid is integrate's; a
+/// failed interval leaves the state and the wheels' hold as they were at its start.
+template <class StepperT, class Traj, class Obs>
+bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scalar t_next,
+                          const FixedSteps<typename StepperT::Scalar>& between, Obs&& obs,
+                          SampledSummary<typename StepperT::Scalar>& sum) {
+  using Scalar = typename StepperT::Scalar;
+  auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
+  const Scalar t0 = traj.time;
+  const Scalar step = between.step_for(traj.omega.norm(), t_next - t0);
+  if (!std::isfinite(static_cast<double>(step)) || step == Scalar(0) || (step > Scalar(0)) != (t_next > t0))
+    detail::fail("integrate: time step h must be finite, non-zero and in the direction of the run, got ", step);
+  const std::int64_t n = grid_steps(t0, t_next, step);
+  for (std::int64_t k = 1; k <= n; ++k) {
+    const Scalar t_a = traj.time;
+    const Scalar t_b = k == n ? t_next : t0 + static_cast<Scalar>(k) * step;
+    const Scalar dt = t_b - t_a;
+    const Traj saved = traj;
+    const ReactionWheels<Scalar> wheels_saved = rw;
+    rw.friction_flow(t_a, dt / Scalar(2), traj.omega);
+    const IntegrationSummary<Scalar> s =
+        integrate_steps(std::as_const(stepper), traj, t_b, dt, NoObserver{}, between.options);
+    sum.steps += s.steps + s.substeps;
+    sum.failures += s.failures;
+    sum.iterations += s.iterations;
+    sum.status = s.status;
+    if (!s.ok()) {
+      traj = saved;
+      rw = wheels_saved;
+      return false;
+    }
+    rw.friction_flow(t_b, dt / Scalar(2), traj.omega);
+    if constexpr (!std::is_same_v<std::decay_t<Obs>, NoObserver>) obs(static_cast<const State<Scalar>&>(traj));
+  }
+  return true;
+}
+}  // namespace detail
+
 /// Integrates `state` (a State or the stepper's Trajectory) from state.time to t_end with the
 /// controller sampled every `period` (> 0; the run may go backward, t_end < t_0, with samples
 /// at t_0 − kT), `between` stepping each hold (FixedSteps or AdaptiveSteps). Throws
@@ -257,6 +302,18 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
   if (!std::isfinite(static_cast<double>(t_end))) detail::fail("sampled: t_end must be finite, got ", t_end);
   if constexpr (requires { between.validate(); }) between.validate();
   state.validate();
+  // [W17] Wheels with viscous friction: its exact flow is split around each fixed step.
+  bool friction = false;
+  if constexpr (scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
+    auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
+    friction = rw.has_friction();
+    if (friction) {
+      if constexpr (!detail::is_fixed_steps<Between>::value)
+        detail::fail("sampled: the wheels have viscous friction, whose flow is split around fixed steps "
+                     "(docs/theory.md [W17]): step between the samples with FixedSteps, not adaptive steps");
+      rw.prepare_friction(stepper.scene().body().inertia_inverse());
+    }
+  }
   constexpr bool observed = !std::is_same_v<Observer, NoObserver>;
   SampledSummary<Scalar> sum;
   const Scalar t0 = state.time;
@@ -299,6 +356,14 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
       }
     };
     bool ok;
+    if constexpr (detail::is_fixed_steps<Between>::value && scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
+      if (friction) {
+        if constexpr (observed) ok = detail::friction_split_steps(stepper, state, t_next, between, inner, sum);
+        else ok = detail::friction_split_steps(stepper, state, t_next, between, NoObserver{}, sum);
+        if (!ok) break;
+        continue;
+      }
+    }
     if constexpr (observed) ok = between(std::as_const(stepper), state, t_next, inner, sum);
     else ok = between(std::as_const(stepper), state, t_next, NoObserver{}, sum);
     if (!ok) break;

@@ -135,6 +135,14 @@ class Scene {
     std::apply([&](const auto&... e) { ((add_wheel_rate(e, r)), ...); }, effects_);
     return r;
   }
+  /// Whether some wheel effect has viscous friction [W17], which only integrate_sampled with
+  /// FixedSteps applies (split around each step); integrate() and integrate_adaptive() refuse it.
+  bool wheel_friction() const {
+    bool f = false;
+    if constexpr (has_wheels)
+      std::apply([&](const auto&... e) { ((f = f || has_friction(e)), ...); }, effects_);
+    return f;
+  }
   /// The wheels' kinetic energy Σ h_i(t)²/(2J_s,i) [W3] (0 without wheels).
   Scalar wheel_energy(Scalar t) const {
     Scalar e(0);
@@ -314,6 +322,11 @@ class Scene {
   template <class E>
   static void add_wheel_rate(const E& e, Vector3& r) {
     if constexpr (detail::time_dependent_rotor_effect<E>()) r += e.rotor_momentum_rate();
+  }
+  template <class E>
+  static bool has_friction(const E& e) {
+    if constexpr (requires { e.has_friction(); }) return e.has_friction();
+    else return false;
   }
   template <class E>
   static void add_wheel_energy(const E& e, Scalar t, Scalar& x) {

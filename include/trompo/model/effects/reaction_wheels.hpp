@@ -28,8 +28,14 @@
 //
 // Energy [W3]: T = ½ ΩᵀJ_hubΩ + Σ h_i²/(2J_s,i), which equals ½ΩᵀJΩ + Σ(½J_s,iΩ_i² +
 // J_s,iΩ_i g_iᵀΩ); Ṫ = Σ u_i Ω_i + Ω·τ_ext (the motors' power).
-// Viscous wheel friction is not modelled: it would make h_i depend on the body's motion
-// inside a hold, and the exact linear law above is what keeps π exact at no cost.
+//
+// Viscous friction [W17]: a wheel may have a coefficient c_i ≥ 0, the torque −c_i Ω_i between
+// wheel and hub. It makes h_i depend on the body inside a hold, so it is not in the hold's
+// line: the sampled driver splits it around each fixed step (Strang), as the exact flow of
+// friction alone (friction_flow: Λ and Π fixed, the relative speeds decaying by a matrix
+// exponential), which keeps π and dissipates exactly Σ c_i Ω_i² over its time. The schemes
+// between see the linear line above. integrate() and integrate_adaptive() refuse a scene whose
+// wheels have friction (they would leave it out).
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -53,6 +59,7 @@ struct Wheel {
   Scalar speed0 = Scalar(0);                                                 ///< Ω_i(t_0), relative
   Scalar max_torque = std::numeric_limits<Scalar>::infinity();               ///< u_max
   Scalar max_speed = std::numeric_limits<Scalar>::infinity();                ///< Ω_max
+  Scalar friction = Scalar(0);  ///< c ≥ 0 (N m s/rad): the viscous torque −c Ω_i on the wheel [W17]
 };
 
 /// N ≤ max_wheels reaction wheels with motor torques held over each sample interval; a
@@ -91,6 +98,8 @@ class ReactionWheels {
     if (!std::isfinite(static_cast<double>(w.speed0))) detail::fail(name, "speed0 must be finite, got ", w.speed0);
     if (!(w.max_torque > Scalar(0))) detail::fail(name, "max_torque must be > 0, got ", w.max_torque);
     if (!(w.max_speed > Scalar(0))) detail::fail(name, "max_speed must be > 0, got ", w.max_speed);
+    if (!std::isfinite(static_cast<double>(w.friction)) || !(w.friction >= Scalar(0)))
+      detail::fail(name, "friction must be finite and >= 0 (N m s/rad), got ", w.friction);
     ++n_;
     axes_.conservativeResize(3, n_);
     axes_.col(i) = w.axis.normalized();
@@ -98,6 +107,8 @@ class ReactionWheels {
     resize_and_set(speed0_, i, w.speed0);
     resize_and_set(u_max_, i, w.max_torque);
     resize_and_set(w_max_, i, w.max_speed);
+    resize_and_set(c_, i, w.friction);
+    friction_ready_ = false;  // prepare_friction again with this wheel
     resize_and_set(h_k_, i, w.inertia * w.speed0);  // absolute momentum for Ω = 0, until start()
     resize_and_set(u_, i, Scalar(0));
   }
@@ -114,6 +125,14 @@ class ReactionWheels {
   const WheelVector& max_torques() const { return u_max_; }
   /// Speed limits Ω_max,i.
   const WheelVector& max_speeds() const { return w_max_; }
+  /// Viscous friction coefficients c_i [W17].
+  const WheelVector& frictions() const { return c_; }
+  /// Whether some wheel has viscous friction (c_i > 0) [W17].
+  bool has_friction() const {
+    for (int i = 0; i < n_; ++i)
+      if (c_(i) > Scalar(0)) return true;
+    return false;
+  }
 
   /// The hub's inertia J_hub = J − Σ J_s,i g_i g_iᵀ [W1], as the scene's body; J is the whole
   /// spacecraft's. Throws invalid_input if J_hub is not positive definite (the wheels'
@@ -202,6 +221,82 @@ class ReactionWheels {
   /// The motors' power Σ u_i Ω_i at (t, Ω) [W3].
   Scalar motor_power(Scalar t, const Vector3& omega) const { return u_.dot(speeds(t, omega)); }
 
+  /// [W17] Prepares friction_flow for the hub whose inverse inertia is J_hub⁻¹ (the scene's
+  /// body): the symmetric matrix M = C^½ S C^½ of the wheels with c_i > 0, S_ij = δ_ij/J_s,i +
+  /// g_iᵀJ_hub⁻¹g_j, and its eigen-decomposition M = Q D Qᵀ. Once per run (the sampled driver
+  /// calls it); it allocates nothing per step afterwards.
+  void prepare_friction(const Matrix3& J_hub_inverse) {
+    m_ = 0;
+    for (int i = 0; i < n_; ++i) {
+      Jinv_g_.col(i) = J_hub_inverse * axes_.col(i);
+      if (c_(i) > Scalar(0)) fric_(m_++) = i;
+    }
+    sqrt_c_.resize(m_);
+    SquareMatrix M(m_, m_);
+    for (int a = 0; a < m_; ++a) sqrt_c_(a) = std::sqrt(c_(fric_(a)));
+    for (int a = 0; a < m_; ++a)
+      for (int b = 0; b < m_; ++b) {
+        const int i = fric_(a), j = fric_(b);
+        const Scalar S = (a == b ? Scalar(1) / Js_(i) : Scalar(0)) + axes_.col(i).dot(Jinv_g_.col(j));
+        M(a, b) = sqrt_c_(a) * S * sqrt_c_(b);
+      }
+    if (m_ > 0) {
+      const Eigen::SelfAdjointEigenSolver<SquareMatrix> eig(M);
+      Q_ = eig.eigenvectors();
+      d_ = eig.eigenvalues().cwiseMax(Scalar(0));  // M is positive definite; no rounding below 0
+    }
+    friction_ready_ = true;
+  }
+
+  /// [W17] The exact flow of the wheels' viscous friction alone, for a time tau from t: Λ and
+  /// the body momentum Π = J_hubΩ + Σ h_i g_i stay, the relative speeds x_i = Ω_i of the wheels
+  /// with friction decay as ẋ = −S C x, i.e. y = C^½x as y(σ) = Q e^{−Dσ} Qᵀ y(0), and
+  ///   Δh_i = −c_i ∫₀^τ x_i dσ = −√c_i [Q diag((1 − e^{−d_a τ})/d_a) Qᵀ y(0)]_i,
+  ///   ΔΩ = −J_hub⁻¹ Σ Δh_i g_i.
+  /// Ω is updated in place and the hold moves to t with the new momenta (u as held). Returns
+  /// the energy the friction dissipated, ∫₀^τ Σ c_i x_i² dσ = Σ_a z_a² (1 − e^{−2d_a τ})/(2d_a),
+  /// z = Qᵀy(0): the kinetic energy [W3] falls by exactly that. tau < 0 runs it backward.
+  /// Throws invalid_input if prepare_friction was not called.
+  Scalar friction_flow(Scalar t, Scalar tau, Vector3& omega) {
+    using std::expm1;
+    if (!friction_ready_) detail::fail("wheels: friction_flow needs prepare_friction(J_hub^-1) first");
+    WheelVector h = momenta(t);
+    Scalar dissipated(0);
+    if (m_ > 0) {
+      WheelVector y(m_);
+      for (int a = 0; a < m_; ++a) {
+        const int i = fric_(a);
+        y(a) = sqrt_c_(a) * (h(i) / Js_(i) - axes_.col(i).dot(omega));
+      }
+      WheelVector z = Q_.transpose() * y;
+      for (int a = 0; a < m_; ++a) {
+        const Scalar d = d_(a);
+        // (1 − e^{−dτ})/d and (1 − e^{−2dτ})/(2d) by expm1; τ and τ for d = 0.
+        const Scalar phi = d > Scalar(0) ? -expm1(-d * tau) / d : tau;
+        const Scalar phi2 = d > Scalar(0) ? -expm1(Scalar(-2) * d * tau) / (Scalar(2) * d) : tau;
+        dissipated += z(a) * z(a) * phi2;
+        z(a) *= phi;
+      }
+      const WheelVector integral = Q_ * z;  // ∫₀^τ y dσ
+      for (int a = 0; a < m_; ++a) {
+        const int i = fric_(a);
+        const Scalar dh = -sqrt_c_(a) * integral(a);
+        h(i) += dh;
+        omega -= dh * Jinv_g_.col(i);
+      }
+    }
+    h_k_ = h;
+    t_k_ = t;
+    return dissipated;
+  }
+  /// The power the friction dissipates at (t, Ω), Σ c_i Ω_i² [W17].
+  Scalar friction_power(Scalar t, const Vector3& omega) const {
+    const WheelVector x = speeds(t, omega);
+    Scalar p(0);
+    for (int i = 0; i < n_; ++i) p += c_(i) * x(i) * x(i);
+    return p;
+  }
+
   /// Nothing to keep per step (one initialised byte: see Rotor::Cache).
   struct Cache {
     char unused = 0;  ///< the initialised byte
@@ -215,9 +310,19 @@ class ReactionWheels {
     v(i) = x;
   }
 
+  using SquareMatrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, 0, max_wheels, max_wheels>;
+
   int n_ = 0;
   Eigen::Matrix<Scalar, 3, Eigen::Dynamic, 0, 3, max_wheels> axes_;
-  WheelVector Js_, speed0_, u_max_, w_max_;
+  WheelVector Js_, speed0_, u_max_, w_max_, c_;
+  // The friction flow's constants (prepare_friction) [W17]: the m_ wheels with c_i > 0, their
+  // indices, √c_i, M = Q D Qᵀ, and J_hub⁻¹g_i of every wheel.
+  bool friction_ready_ = false;
+  int m_ = 0;
+  Eigen::Matrix<int, max_wheels, 1> fric_ = Eigen::Matrix<int, max_wheels, 1>::Zero();
+  WheelVector sqrt_c_, d_;
+  SquareMatrix Q_;
+  Eigen::Matrix<Scalar, 3, max_wheels> Jinv_g_ = Eigen::Matrix<Scalar, 3, max_wheels>::Zero();
   WheelVector h_k_;  ///< h_i(t_k)
   WheelVector u_;    ///< held motor torques
   Scalar t_k_ = Scalar(0);

@@ -1,0 +1,394 @@
+// Viscous wheel friction (docs/theory.md [W17], docs/control.md): the exact flow of friction
+// alone, split around each fixed step of the sampled driver. Closed forms on one axis, the
+// energy sink on three, an independent reference for the order, π exact, the failure
+// contract and the refusals.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <vector>
+
+#include "support/trompo_test.hpp"
+
+using namespace trompo;
+using trompo_test::Mat3;
+using trompo_test::Vec3;
+using Wheels = ReactionWheels<double>;
+using WheelVector = Wheels::WheelVector;
+
+namespace {
+
+constexpr double rpm = 2.0 * 3.14159265358979323846 / 60.0;
+
+/// A controller that holds u = `u_of(t)` on every wheel (one value per wheel).
+struct HoldEach {
+  WheelVector (*u_of)(double);
+  Command<double> operator()(const Sample<double>& s) const {
+    Command<double> c;
+    c.wheel_torques = u_of(s.time);
+    return c;
+  }
+};
+
+/// Three wheels on the body axes and a skew one, each with its own friction.
+Wheels four_wheels_with_friction() {
+  Wheels rw;
+  rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.08, .speed0 = 100 * rpm, .max_torque = 0.5, .friction = 0.02});
+  rw.add_wheel({.axis = Vec3::UnitY(), .inertia = 0.08, .speed0 = -200 * rpm, .max_torque = 0.5, .friction = 0.01});
+  rw.add_wheel({.axis = Vec3::UnitZ(), .inertia = 0.08, .speed0 = 300 * rpm, .max_torque = 0.5});
+  rw.add_wheel({.axis = Vec3(1, 1, 1), .inertia = 0.05, .speed0 = 50 * rpm, .max_torque = 0.5, .friction = 0.03});
+  return rw;
+}
+
+WheelVector four_commands(double t) {
+  WheelVector u(4);
+  u << 0.2 * std::sin(t), -0.1 * std::cos(0.7 * t), 0.15, 0.1 * std::sin(1.3 * t + 1);
+  return u;
+}
+
+// One axis: a hub diag(2, 2, Jh) spinning about z with a wheel on z. Π_z = Jh ω + h is
+// constant (Ω × Π = 0), and ḣ = u − c(h/J_s − ω) with ω = (Π − h)/Jh is linear:
+// h(t) = h∞ + (h0 − h∞) e^{−k(t − t_k)}, k = c(1/J_s + 1/Jh), h∞ = (u + cΠ/Jh)/k.
+struct OneAxis {
+  double Js = 0.1, Jh = 3.0, c = 0.05, w0 = 0.4, W0 = 50.0, T = 0.5, t_end = 10.0;
+  static WheelVector u_of(double t) { return WheelVector::Constant(1, std::fmod(t + 1e-9, 1.0) < 0.5 ? 0.3 : -0.2); }
+  static WheelVector zero(double) { return WheelVector::Zero(1); }
+
+  Wheels wheels() const {
+    Wheels rw;
+    rw.add_wheel({.axis = Vec3::UnitZ(), .inertia = Js, .speed0 = W0, .friction = c});
+    return rw;
+  }
+  /// The closed form at t_end: ω_z and the wheel's absolute momentum h.
+  std::pair<double, double> exact(bool driven) const {
+    double h = Js * (W0 + w0);
+    const double Pi = Jh * w0 + h, k = c * (1 / Js + 1 / Jh);
+    for (double t = 0; t < t_end - 1e-9; t += T) {
+      const double u = driven ? u_of(t)(0) : 0.0;
+      const double hinf = (u + c * Pi / Jh) / k;
+      h = hinf + (h - hinf) * std::exp(-k * T);
+    }
+    return {(Pi - h) / Jh, h};
+  }
+  template <class Scheme>
+  std::pair<double, double> run(double dt, bool driven) const {
+    const Wheels rw = wheels();
+    using Sc = Scene<double, Wheels>;
+    Stepper<Scheme, Sc> stepper(Scheme{}, Sc(rw.hub_body(Vec3(2 + Js, 2 + Js, Jh + Js).asDiagonal()), rw));
+    State<double> s;
+    s.omega = Vec3(0, 0, w0);
+    stepper.scene().template effect<Wheels>().start(0.0, s.omega);
+    HoldEach ctrl{driven ? &u_of : &zero};
+    const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, T, ctrl, FixedSteps<double>{dt});
+    REQUIRE(sum.ok());
+    REQUIRE(s.time == t_end);
+    CHECK(s.omega.head<2>().norm() <= 1e-14);
+    return {s.omega.z(), stepper.scene().template effect<Wheels>().momenta(s.time)(0)};
+  }
+};
+
+}  // namespace
+
+// Without a motor torque the friction flow and the body's spin about the same axis commute:
+// the split run is the closed form to round-off, at any step. With held motor torques the
+// split is Strang's, whose error falls as Δt² (measured from a sweep).
+TEMPLATE_TEST_CASE("friction: the closed form on one axis, exact undriven and of order 2 driven", "[control][friction]",
+                   SimoKappa, RK4, Splitting, LGVI) {
+  const OneAxis c;
+  const auto [w_exact, h_exact] = c.exact(false);
+  const auto [w, h] = c.template run<TestType>(0.1, false);
+  INFO("undriven: omega_z " << w << " vs " << w_exact << ", h " << h << " vs " << h_exact);
+  CHECK(std::abs(w - w_exact) <= 1e-14);
+  CHECK(std::abs(h - h_exact) <= 1e-13 * std::abs(h_exact));
+  // The wheel slowed relative to the hub: friction acted (h moved by a few units).
+  CHECK(std::abs(h - c.Js * (c.W0 + c.w0)) > 0.1);
+
+  const auto [wd_exact, hd_exact] = c.exact(true);
+  std::vector<double> err;
+  for (const double dt : {0.1, 0.05, 0.025}) {
+    const auto [wd, hd] = c.template run<TestType>(dt, true);
+    err.push_back(std::abs(hd - hd_exact));
+    CHECK(std::abs(c.Jh * wd + hd - (c.Jh * wd_exact + hd_exact)) <= 1e-13);  // Π_z kept
+  }
+  const double p1 = std::log2(err[0] / err[1]), p2 = std::log2(err[1] / err[2]);
+  INFO("driven: |h - h_exact| = " << err[0] << ", " << err[1] << ", " << err[2] << "; orders " << p1 << ", " << p2);
+  CHECK(err[0] > 1e-9);  // the split's error is real at this step, and falls as:
+  CHECK(std::abs(p1 - 2) <= 0.05);
+  CHECK(std::abs(p2 - 2) <= 0.05);
+}
+
+// friction_flow alone: Λ and Π stay, the kinetic energy [W3] falls by exactly the dissipation
+// it returns, and its backward flow undoes it.
+TEST_CASE("friction: the flow keeps Pi and dissipates what it says", "[control][friction]") {
+  Wheels rw = four_wheels_with_friction();
+  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
+  using Sc = Scene<double, Wheels>;
+  Sc sc(rw.hub_body(J), rw);
+  Wheels& w = sc.effect<Wheels>();
+  State<double> s;
+  s.time = 3.0;
+  s.omega = Vec3(0.3, -0.2, 0.5);
+  w.start(0.0, Vec3(0.3, -0.2, 0.5));
+  w.hold(1.0, four_commands(1.0));
+  REQUIRE_THROWS_WITH(w.friction_flow(s.time, 0.1, s.omega), Catch::Contains("prepare_friction"));
+  w.prepare_friction(sc.body().inertia_inverse());
+  const Wheels fresh = w;  // the hold before any flow
+  const Vec3 Pi0 = sc.momentum(s.omega, s.time);
+  const double T0 = sc.energy(s);
+  const double P0 = w.friction_power(s.time, s.omega);
+  const State<double> before = s;
+  // A short flow dissipates P0·τ to first order.
+  const double tiny = w.friction_flow(s.time, 1e-6, s.omega);
+  CHECK(std::abs(tiny - P0 * 1e-6) <= 1e-4 * P0 * 1e-6);
+  s = before;
+  w = fresh;
+  const double dissipated = w.friction_flow(s.time, 2.0, s.omega);
+  CHECK(dissipated > 0);
+  CHECK(w.hold_time() == s.time);
+  CHECK((sc.momentum(s.omega, s.time) - Pi0).norm() <= 4e-16 * Pi0.norm() * 4);
+  INFO("T0 = " << T0 << ", dissipated = " << dissipated << ", T1 = " << sc.energy(s));
+  CHECK(std::abs(sc.energy(s) - (T0 - dissipated)) <= 4e-15 * T0);
+  // The speeds of the wheel without friction's neighbours moved; its own h did not.
+  CHECK(w.momenta(s.time)(2) == fresh.momenta(s.time)(2));
+  // Backward by the same time: back to the start, to round-off.
+  const double regained = w.friction_flow(s.time, -2.0, s.omega);
+  CHECK(std::abs(regained + dissipated) <= 1e-13 * dissipated);
+  CHECK((s.omega - before.omega).norm() <= 1e-14 * before.omega.norm());
+  CHECK((w.momenta(s.time) - fresh.momenta(s.time)).norm() <= 1e-13 * fresh.momenta(s.time).norm());
+}
+
+// A spacecraft with lossy wheels and no motor torque is an energy sink: it ends spinning as a
+// rigid body about its major axis (the whole spacecraft's, wheels locked), T = |π|²/(2J_max),
+// with π kept exactly all the way.
+TEMPLATE_TEST_CASE("friction: the energy sink ends in a major-axis spin, pi exact", "[control][friction]", SimoKappa,
+                   SimoAlpha) {
+  Wheels rw;
+  rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.05, .speed0 = 20, .friction = 0.005});
+  rw.add_wheel({.axis = Vec3::UnitY(), .inertia = 0.05, .speed0 = -10, .friction = 0.005});
+  rw.add_wheel({.axis = Vec3(0, 1, 1), .inertia = 0.05, .speed0 = 5, .friction = 0.005});
+  const Mat3 J = (Mat3() << 6, 0.3, 0, 0.3, 8, -0.2, 0, -0.2, 9).finished();
+  using Sc = Scene<double, Wheels>;
+  Stepper<TestType, Sc> stepper(TestType{}, Sc(rw.hub_body(J), rw));
+  State<double> s;
+  s.rotation = SO3d::exp(Vec3(0.2, 0.4, -0.1));
+  s.omega = Vec3(0.4, 0.3, -0.2);
+  stepper.scene().template effect<Wheels>().start(0.0, s.omega);
+  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+  const double T0 = stepper.scene().energy(s);
+  double max_pi = 0, rise = 0, last = T0;
+  int steps = 0;
+  auto observer = [&](const State<double>& x) {
+    max_pi = std::max(max_pi, (stepper.scene().spatial_momentum(x) - pi0).norm() / pi0.norm());
+    const double T = stepper.scene().energy(x);
+    rise = std::max(rise, (T - last) / T0);  // never up by more than round-off
+    last = T;
+    ++steps;
+  };
+  auto none = [](const Sample<double>&) { return Command<double>{}; };
+  const SampledSummary<double> sum = integrate_sampled(stepper, s, 6000.0, 1.0, none, FixedSteps<double>{0.05}, observer);
+  REQUIRE(sum.ok());
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(J);
+  const double J_max = eig.eigenvalues()(2);
+  const double T_end = stepper.scene().energy(s), T_sink = pi0.squaredNorm() / (2 * J_max);
+  const WheelVector x = stepper.scene().template effect<Wheels>().speeds(s.time, s.omega);
+  INFO("T0 = " << T0 << ", T_end = " << T_end << ", |pi|^2/(2 J_max) = " << T_sink << ", wheel speeds " << x.transpose()
+               << ", max |pi - pi0|/|pi0| = " << max_pi << ", largest rise " << rise << " over " << steps << " rows");
+  CHECK(T0 > 1.5 * T_sink);  // far from the end state at the start
+  CHECK(std::abs(T_end - T_sink) <= 1e-9 * T_sink);
+  CHECK(x.norm() <= 1e-6);  // the wheels locked to the hub
+  // The body's rate along the major axis, in the direction of π.
+  const Vec3 axis = eig.eigenvectors().col(2);
+  CHECK(std::abs(std::abs(s.omega.normalized().dot(axis)) - 1) <= 1e-9);
+  CHECK(max_pi <= 3 * std::sqrt(double(steps)) * 2.22e-16);
+  CHECK(rise <= 1e-15);
+}
+
+// Three axes, held commands, four wheels (one without friction): the split run against an
+// independent reference, RK4 on (q, Π, h_i) with the friction in the vector field, at a step
+// 50 times smaller. Simo-κ in the split is of order 2, π kept to round-off.
+TEST_CASE("friction: three axes against an independent reference, order 2", "[control][friction]") {
+  const Wheels rw0 = four_wheels_with_friction();
+  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
+  using Sc = Scene<double, Wheels>;
+  const RigidBody<double> hub = rw0.hub_body(J);
+  const double T = 0.5, t_end = 10.0;
+  const Vec3 omega0(0.3, -0.2, 0.5), theta0(0.1, -0.3, 0.2);
+
+  // The reference: y = (q, Π, h), Π̇ = Π × Ω, ḣ_i = u_i − c_i(h_i/J_s,i − g_i·Ω),
+  // Ω = J_hub⁻¹(Π − Σ h_i g_i), q̇ = ½ q ⊗ (0, Ω); u held over each sample.
+  const Mat3 Jinv = hub.inertia_inverse();
+  const int n = rw0.size();
+  Eigen::Quaterniond q(SO3d::exp(theta0).matrix());
+  WheelVector h(n);
+  for (int i = 0; i < n; ++i) h(i) = rw0.inertias()(i) * (rw0.speeds(0, Vec3::Zero())(i) + rw0.axis(i).dot(omega0));
+  Vec3 Pi = hub.inertia() * omega0 + rw0.axes() * h;
+  struct D {
+    Eigen::Vector4d q;
+    Vec3 Pi;
+    WheelVector h;
+  };
+  auto rate = [&](const D& y, const WheelVector& u) {
+    const Vec3 w = Jinv * (y.Pi - rw0.axes() * y.h);
+    D d;
+    const Eigen::Quaterniond qq(y.q(3), y.q(0), y.q(1), y.q(2));
+    const Eigen::Quaterniond dq = qq * Eigen::Quaterniond(0, w.x(), w.y(), w.z());
+    d.q = 0.5 * dq.coeffs();
+    d.Pi = y.Pi.cross(w);
+    d.h.resize(n);
+    for (int i = 0; i < n; ++i)
+      d.h(i) = u(i) - rw0.frictions()(i) * (y.h(i) / rw0.inertias()(i) - rw0.axis(i).dot(w));
+    return d;
+  };
+  auto add = [n](const D& y, const D& d, double a) {
+    D r{y.q + a * d.q, y.Pi + a * d.Pi, WheelVector(n)};
+    r.h = y.h + a * d.h;
+    return r;
+  };
+  D y{q.coeffs(), Pi, h};
+  const int per_sample = 2000;
+  const double dt_ref = T / per_sample;
+  for (int k = 0; k * T < t_end - 1e-9; ++k) {
+    const WheelVector u = four_commands(k * T);
+    for (int j = 0; j < per_sample; ++j) {
+      const D k1 = rate(y, u), k2 = rate(add(y, k1, dt_ref / 2), u), k3 = rate(add(y, k2, dt_ref / 2), u),
+              k4 = rate(add(y, k3, dt_ref), u);
+      y.q += dt_ref / 6 * (k1.q + 2 * k2.q + 2 * k3.q + k4.q);
+      y.Pi += dt_ref / 6 * (k1.Pi + 2 * k2.Pi + 2 * k3.Pi + k4.Pi);
+      y.h += dt_ref / 6 * (k1.h + 2 * k2.h + 2 * k3.h + k4.h);
+    }
+  }
+  const Mat3 R_ref = Eigen::Quaterniond(y.q(3), y.q(0), y.q(1), y.q(2)).normalized().toRotationMatrix();
+  const Vec3 omega_ref = Jinv * (y.Pi - rw0.axes() * y.h);
+
+  std::vector<double> err;
+  for (const double dt : {0.1, 0.05, 0.025}) {
+    Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(hub, rw0));
+    State<double> s;
+    s.rotation = SO3d::exp(theta0);
+    s.omega = omega0;
+    stepper.scene().effect<Wheels>().start(0.0, s.omega);
+    const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+    HoldEach ctrl{&four_commands};
+    REQUIRE(integrate_sampled(stepper, s, t_end, T, ctrl, FixedSteps<double>{dt}).ok());
+    CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+    const double e = (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
+                     (stepper.scene().effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();
+    err.push_back(e);
+  }
+  const double p1 = std::log2(err[0] / err[1]), p2 = std::log2(err[1] / err[2]);
+  INFO("errors " << err[0] << ", " << err[1] << ", " << err[2] << "; orders " << p1 << ", " << p2);
+  CHECK(err[2] <= 1e-3);
+  CHECK(std::abs(p1 - 2) <= 0.1);
+  CHECK(std::abs(p2 - 2) <= 0.1);
+}
+
+// A symmetric scheme in a symmetric split is time-reversible: forward then backward under the
+// same held command returns to the start.
+TEST_CASE("friction: forward then backward returns to the start", "[control][friction]") {
+  Wheels rw = four_wheels_with_friction();
+  using Sc = Scene<double, Wheels>;
+  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(9, 8, 6).asDiagonal()), rw));
+  State<double> s;
+  s.omega = Vec3(0.3, -0.2, 0.5);
+  stepper.scene().effect<Wheels>().start(0, s.omega);
+  const State<double> start = s;
+  const WheelVector h0 = stepper.scene().effect<Wheels>().momenta(0);
+  auto constant = [](const Sample<double>&) {
+    Command<double> c;
+    c.wheel_torques = four_commands(0.3);
+    return c;
+  };
+  REQUIRE(integrate_sampled(stepper, s, 5.0, 0.5, constant, FixedSteps<double>{0.05}).ok());
+  CHECK((s.omega - start.omega).norm() > 0.01);
+  REQUIRE(integrate_sampled(stepper, s, 0.0, 0.5, constant, FixedSteps<double>{-0.05}).ok());
+  CHECK(s.time == 0.0);
+  CHECK((s.omega - start.omega).norm() <= 1e-12);
+  CHECK((s.rotation.matrix() - start.rotation.matrix()).norm() <= 1e-12);
+  CHECK((stepper.scene().effect<Wheels>().momenta(0) - h0).norm() <= 1e-12 * h0.norm());
+}
+
+TEST_CASE("friction: a failed step keeps state and wheels", "[control][friction]") {
+  Wheels rw = four_wheels_with_friction();
+  using Sc = Scene<double, Wheels>;
+  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(9, 8, 6).asDiagonal()), rw));
+  stepper.options().max_iterations = 2;  // a fast spin at a long step: Newton cannot settle
+  State<double> s;
+  s.omega = Vec3(3, -4, 5);
+  stepper.scene().effect<Wheels>().start(0, s.omega);
+  const State<double> before = s;
+  const WheelVector h0 = stepper.scene().effect<Wheels>().momenta(0);
+  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+  IntegrateOptions no_recovery;
+  no_recovery.max_halvings = 0;
+  auto constant = [](const Sample<double>&) {
+    Command<double> c;
+    c.wheel_torques = WheelVector::Constant(4, 0.2);
+    return c;
+  };
+  const auto sum = integrate_sampled(stepper, s, 10.0, 1.0, constant, FixedSteps<double>{1.0, no_recovery});
+  REQUIRE_FALSE(sum.ok());
+  CHECK(sum.status != StepStatus::ok);
+  CHECK(s.time == before.time);
+  CHECK(s.omega == before.omega);
+  CHECK(s.rotation.unit_quaternion().coeffs() == before.rotation.unit_quaternion().coeffs());
+  const Wheels& w = stepper.scene().effect<Wheels>();
+  CHECK(w.momenta(0) == h0);
+  CHECK(w.torques() == WheelVector::Constant(4, 0.2));
+  CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() == 0.0);
+}
+
+TEST_CASE("friction: bad input and the drivers that cannot apply it are refused", "[control][friction]") {
+  Wheels rw;
+  REQUIRE_THROWS_WITH(rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.1, .friction = -1e-3}),
+                      Catch::Contains("wheel 1") && Catch::Contains("friction"));
+  REQUIRE_THROWS_WITH(rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.1, .friction = std::nan("")}),
+                      Catch::Contains("friction"));
+  REQUIRE(rw.size() == 0);
+  rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.1, .friction = 0.0});
+  CHECK_FALSE(rw.has_friction());
+  rw.add_wheel({.axis = Vec3::UnitY(), .inertia = 0.1, .friction = 1e-3});
+  CHECK(rw.has_friction());
+
+  using Sc = Scene<double, Wheels>;
+  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(3, 4, 5).asDiagonal()), rw));
+  State<double> s;
+  s.omega = Vec3(0.1, 0.2, 0.3);
+  stepper.scene().effect<Wheels>().start(0, s.omega);
+  CHECK(stepper.scene().wheel_friction());
+  const State<double> before = s;
+  REQUIRE_THROWS_WITH(integrate(stepper, s, 1.0, 0.1), Catch::Contains("integrate: the wheels have viscous friction"));
+  AdaptiveOptions<double> opt;
+  opt.rtol = 1e-8;
+  REQUIRE_THROWS_WITH(integrate_adaptive(stepper, s, 1.0, opt), Catch::Contains("viscous friction"));
+  auto none = [](const Sample<double>&) { return Command<double>{}; };
+  REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, AdaptiveSteps<double>{opt}),
+                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("FixedSteps"));
+  CHECK(s.omega == before.omega);
+  CHECK(s.time == before.time);
+  // FixedSteps applies it.
+  REQUIRE(integrate_sampled(stepper, s, 1.0, 0.1, none, FixedSteps<double>{0.1}).ok());
+  CHECK(s.time == 1.0);
+}
+
+// Closed-loop ensembles copy the stepper per member: each member with friction is its own
+// single run, bit for bit.
+TEST_CASE("friction: ensemble members are their single runs", "[control][friction]") {
+  Wheels rw = four_wheels_with_friction();
+  using Sc = Scene<double, Wheels>;
+  const Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(9, 8, 6).asDiagonal()), rw));
+  std::vector<State<double>> initials(3);
+  for (int i = 0; i < 3; ++i) initials[i].omega = Vec3(0.1 * (i + 1), -0.2, 0.3);
+  HoldEach ctrl{&four_commands};
+  EnsembleOptions two;
+  two.threads = 2;
+  const auto members = integrate_sampled_ensemble(stepper, initials, 3.0, 0.5, ctrl, FixedSteps<double>{0.05}, two);
+  for (int i = 0; i < 3; ++i) {
+    auto own = stepper;
+    State<double> s = initials[i];
+    own.scene().effect<Wheels>().start(s.time, s.omega);
+    HoldEach c = ctrl;
+    REQUIRE(integrate_sampled(own, s, 3.0, 0.5, c, FixedSteps<double>{0.05}).ok());
+    CHECK(members[i].state.omega == s.omega);
+    CHECK(members[i].state.rotation.unit_quaternion().coeffs() == s.rotation.unit_quaternion().coeffs());
+    CHECK(members[i].wheel_speeds == own.scene().effect<Wheels>().speeds(s.time, s.omega));
+  }
+}

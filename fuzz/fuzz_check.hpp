@@ -601,6 +601,13 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
     }
   } ctrl{{values[0], values[1], values[2], values[3]}, n_wheels};
   SampledSummary<double> sum;
+  // Viscous wheel friction [W17] on the fixed-step runs: one byte after each branch's own draws
+  // (a corpus input that ends before it keeps its run without friction), then c for each wheel.
+  const auto maybe_friction = [&](auto& stepper) {
+    if (!(in.byte() & 1)) return;
+    auto& rw = stepper.scene().template effect<ReactionWheels<double>>();
+    for (int i = 0; i < rw.size(); ++i) rw.set_friction(i, in.magnitude(-4, 0, wild, false));
+  };
   try {
     switch (in.choose(3)) {
       case 0: {
@@ -619,12 +626,14 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
           opt.max_steps = 1 + static_cast<std::int64_t>(in.choose(48));
           sum = integrate_sampled(st, s, t_end, period, ctrl, AdaptiveSteps<double>{opt});
         } else {
+          maybe_friction(st);
           sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
         }
         break;
       }
       case 1: {
         Stepper<RK4, Scene> st(RK4{}, scene);
+        maybe_friction(st);
         sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
         break;
       }
@@ -637,6 +646,7 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
           angle = in.magnitude(-1.3, 0, false, false);
           if (!(s.omega.norm() * period / angle <= 1e4)) angle = 0;
         }
+        maybe_friction(st);
         sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h, {}, angle});
       }
     }

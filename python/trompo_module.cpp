@@ -271,20 +271,23 @@ M3 target_of(const Array& target) {
 }
 
 /// The wheels of a trompo.Spacecraft into the Config: `wheels` (N, 5) rows axis(3), Js, speed0,
-/// `limits` (N, 2) max_torque, max_speed; each checked as the library checks it (naming the
-/// wheel), then the control flags again (mrp-pd needs axes spanning 3-D).
+/// `limits` (N, 2) max_torque, max_speed or (N, 3) with the viscous friction c as well [W17];
+/// each checked as the library checks it (naming the wheel), then the control flags again
+/// (mrp-pd needs axes spanning 3-D, friction fixed steps).
 void set_wheels(Config& c, const std::map<std::string, std::string>& flags, const Array& wheels, const Array& limits) {
-  if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 && limits.shape(1) == 2 &&
-        limits.shape(0) == wheels.shape(0)))
-    throw py::value_error("wheels: expected (N, 5) and (N, 2) arrays");
+  if (!(wheels.ndim() == 2 && wheels.shape(1) == 5 && limits.ndim() == 2 &&
+        (limits.shape(1) == 2 || limits.shape(1) == 3) && limits.shape(0) == wheels.shape(0)))
+    throw py::value_error("wheels: expected (N, 5) and (N, 2) or (N, 3) arrays");
+  const py::ssize_t columns = limits.shape(1);
   for (py::ssize_t i = 0; i < wheels.shape(0); ++i) {
     const double* w = wheels.data() + 5 * i;
     trompo::Wheel<double> wheel;
     wheel.axis = V3(w[0], w[1], w[2]);
     wheel.inertia = w[3];
     wheel.speed0 = w[4];
-    wheel.max_torque = limits.data()[2 * i];
-    wheel.max_speed = limits.data()[2 * i + 1];
+    wheel.max_torque = limits.data()[columns * i];
+    wheel.max_speed = limits.data()[columns * i + 1];
+    if (columns == 3) wheel.friction = limits.data()[columns * i + 2];
     trompo::ReactionWheels<double>().add_wheel(wheel);  // its checks, naming the wheel
     c.control.wheels.push_back(wheel);
   }
@@ -545,7 +548,7 @@ trompo::Command<double> command_of(const py::handle& out, bool field) {
 /// FixedSteps of --dt, the same dispatch over --scheme/--order) on the spacecraft given as
 /// arrays. `flags`: the CLI's (--inertia, --dt, --t-end, --every, --scheme, --order,
 /// --controller mrp-pd:K,P|bdot:k|code, --control-period, --orbit-*, --max-dipole);
-/// `wheels`: (N, 5) rows axis(3), Js, speed0 then max_torque, max_speed in `limits` (N, 2);
+/// `wheels`: (N, 5) rows axis(3), Js, speed0 then max_torque, max_speed[, friction] in `limits` (N, 2|3);
 /// `rotation` (3, 3) body -> space, `omega` (3,); `target` mrp-pd's (3, 3); `controller`
 /// a callable f(t, R, W, wheel_speeds, memory) for --controller code; `events` Python event
 /// functions as simulate_flags' (with --rtol: adaptive steps over each hold). The GIL is released

@@ -334,6 +334,36 @@ TEST_CASE("friction: a failed step keeps state and wheels", "[control][friction]
   CHECK(w.momenta(0) == h0);
   CHECK(w.torques() == WheelVector::Constant(4, 0.2));
   CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() == 0.0);
+
+  // A stiff friction stays finite: with c_1 = 10^3 or 10^6 (c/J_s·Δt/2 = 600 or 6·10^5) wheel 1
+  // locks to the hub within each half flow, up to the slip its slower neighbours force on it,
+  // x_1 ≈ −Σ_a S_1a c_a x_a/(S_11 c_1), which falls as 1/c_1. One whose matrix overflows
+  // (c/J_s > max) fails as non-finite, and keeps the state and the wheels too.
+  double slip[2] = {0, 0};
+  for (const double c : {1e3, 1e6, 1e308}) {
+    Stepper<SimoKappa, Sc> stiff(SimoKappa{}, Sc(rw.hub_body(Vec3(9, 8, 6).asDiagonal()), rw));
+    stiff.scene().effect<Wheels>().set_friction(0, c);
+    State<double> x;
+    x.omega = Vec3(0.3, -0.2, 0.1);
+    stiff.scene().effect<Wheels>().start(0, x.omega);
+    const State<double> x0 = x;
+    const WheelVector hx = stiff.scene().effect<Wheels>().momenta(0);
+    const auto r = integrate_sampled(stiff, x, 1.0, 0.5, constant, FixedSteps<double>{0.1});
+    INFO("c = " << c << ": " << r.reason() << " at t = " << x.time);
+    if (c < 1e308) {
+      REQUIRE(r.ok());
+      slip[c < 1e4 ? 0 : 1] = std::abs(stiff.scene().effect<Wheels>().speeds(x.time, x.omega)(0));
+    } else {
+      CHECK(r.status == StepStatus::non_finite);
+      CHECK(x.time == 0.0);
+      CHECK(x.omega == x0.omega);
+      CHECK(stiff.scene().effect<Wheels>().momenta(0) == hx);
+    }
+  }
+  INFO("wheel 1's slip at c = 1e3 and 1e6: " << slip[0] << ", " << slip[1]);
+  CHECK(slip[0] < 1e-5);
+  CHECK(slip[0] / slip[1] > 500);
+  CHECK(slip[0] / slip[1] < 2000);
 }
 
 TEST_CASE("friction: bad input and the drivers that cannot apply it are refused", "[control][friction]") {
@@ -343,10 +373,14 @@ TEST_CASE("friction: bad input and the drivers that cannot apply it are refused"
   REQUIRE_THROWS_WITH(rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.1, .friction = std::nan("")}),
                       Catch::Contains("friction"));
   REQUIRE(rw.size() == 0);
+  REQUIRE_THROWS_WITH(rw.set_friction(0, 1.0), Catch::Contains("wheel 1: no such wheel"));
   rw.add_wheel({.axis = Vec3::UnitX(), .inertia = 0.1, .friction = 0.0});
   CHECK_FALSE(rw.has_friction());
   rw.add_wheel({.axis = Vec3::UnitY(), .inertia = 0.1, .friction = 1e-3});
   CHECK(rw.has_friction());
+  REQUIRE_THROWS_WITH(rw.set_friction(1, -2.0), Catch::Contains("wheel 2: friction must be finite and >= 0"));
+  REQUIRE_THROWS_WITH(rw.set_friction(1, INFINITY), Catch::Contains("wheel 2: friction"));
+  CHECK(rw.frictions()(1) == 1e-3);
 
   using Sc = Scene<double, Wheels>;
   Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(3, 4, 5).asDiagonal()), rw));

@@ -272,6 +272,39 @@ def test_the_example_runs_and_plots(tmp_path):
     assert "51 rows" in p.stdout and png.stat().st_size > 1000
 
 
+def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
+    """Wheel(friction=c): the torque -c * speed between wheel and body [W17], split around the
+    fixed steps. With no command (MrpPd(0, 0)) the energy never rises and the wheels slow
+    relative to the body; pi stays to round-off; the CLI's rows with the friction column are
+    the same bits; rtol and a negative c are refused in Python words."""
+    from conftest import cli_path
+    import subprocess
+    wheels = [trompo.Wheel(axis, 0.05, speed0=s, friction=c)
+              for axis, s, c in zip(np.eye(3), (10.0, -5.0, 0.0), (0.002, 0.001, 0.0))]
+    sc = trompo.Spacecraft([10, 12, 8], wheels=wheels)
+    s0 = trompo.initial_state(rotation=np.eye(3), omega=(0.02, -0.01, 0.03))
+    res = trompo.control(sc, s0, 60.0, dt=0.1, period=0.5, controller=trompo.MrpPd(0, 0), every=10)
+    assert res.success and len(res.t) == 61
+    assert np.all(np.diff(res.H) <= 1e-15 * res.H[0]) and res.H[-1] < 0.99 * res.H[0]
+    assert np.max(np.abs(res.pi - res.pi[0])) <= 1e-13 * np.linalg.norm(res.pi[0])
+    assert abs(res.wheel_speeds[-1, 0]) < 0.5 * 10.0 and res.wheel_speeds[-1, 2] != 0.0
+    assert "friction=0.002" in repr(wheels[0])
+    csv = tmp_path / "wheels.csv"
+    csv.write_text("gx,gy,gz,Js,speed0,max_torque,max_speed,friction\n" + "".join(
+        f"{w.axis[0]!r},{w.axis[1]!r},{w.axis[2]!r},{w.Js!r},{w.speed0!r},inf,inf,{w.friction!r}\n" for w in wheels))
+    p = subprocess.run([cli_path(), "--inertia", "10,12,8", "--wheels", str(csv), "--omega", "0.02,-0.01,0.03",
+                        "--controller", "mrp-pd:0,0", "--control-period", "0.5", "--dt", "0.1", "--t-end", "60",
+                        "--every", "10"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    a = np.array([[float(x) for x in line.split(",")] for line in p.stdout.splitlines()[1:]])
+    np.testing.assert_array_equal(res.R.reshape(-1, 9), a[:, 1:10])
+    np.testing.assert_array_equal(res.wheel_speeds, a[:, 19:22])
+    with pytest.raises(ValueError, match="^friction: must be >= 0"):
+        trompo.Wheel((1, 0, 0), 0.05, friction=-1.0)
+    with pytest.raises(ValueError, match="viscous friction, which needs fixed steps \\(dt\\), not rtol"):
+        trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0))
+
+
 def test_the_builtin_controller_gives_the_cli_rows(tmp_path):
     """trompo.control with MrpPd runs trompo-simulate's control path: the CLI's rows, wheel
     columns included, bit for bit (identity start: the same quaternion both ways)."""

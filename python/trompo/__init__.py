@@ -507,9 +507,11 @@ def usage():
 class Wheel:
     """A reaction wheel: spin ``axis`` in body axes (normalised by the engine), axial inertia
     ``Js`` (kg m^2), initial speed ``speed0`` relative to the body (rad/s), motor torque limit
-    ``max_torque`` (N m) and speed limit ``max_speed`` (rad/s); ``inf``: no limit."""
+    ``max_torque`` (N m) and speed limit ``max_speed`` (rad/s); ``inf``: no limit. ``friction``
+    is the viscous coefficient c (N m s/rad): the torque -c * speed between wheel and body, which
+    ``control`` applies with fixed steps ``dt`` only (docs/theory.md [W17])."""
 
-    def __init__(self, axis, Js, speed0=0.0, max_torque=math.inf, max_speed=math.inf):
+    def __init__(self, axis, Js, speed0=0.0, max_torque=math.inf, max_speed=math.inf, friction=0.0):
         self.axis = _array("axis", axis, (3,))
         if not np.any(self.axis != 0):
             raise ValueError("axis: must be non-zero")
@@ -517,10 +519,11 @@ class Wheel:
         self.speed0 = _finite("speed0", speed0)
         self.max_torque = _finite("max_torque", max_torque, positive=True, allow_inf=True)
         self.max_speed = _finite("max_speed", max_speed, positive=True, allow_inf=True)
+        self.friction = _finite("friction", friction, nonnegative=True)
 
     def __repr__(self):
         return (f"Wheel(axis={self.axis.tolist()}, Js={self.Js!r}, speed0={self.speed0!r}, "
-                f"max_torque={self.max_torque!r}, max_speed={self.max_speed!r})")
+                f"max_torque={self.max_torque!r}, max_speed={self.max_speed!r}, friction={self.friction!r})")
 
 
 class Orbit:
@@ -698,10 +701,11 @@ def _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, orde
 
 
 def _wheel_arrays(spacecraft):
-    """The wheels as the engine takes them: (N, 5) axis, Js, speed0 and (N, 2) limits."""
+    """The wheels as the engine takes them: (N, 5) axis, Js, speed0 and (N, 3) max_torque,
+    max_speed, friction."""
     n = len(spacecraft.wheels)
     wheels = np.array([[*w.axis, w.Js, w.speed0] for w in spacecraft.wheels]).reshape(n, 5)
-    limits = np.array([[w.max_torque, w.max_speed] for w in spacecraft.wheels]).reshape(n, 2)
+    limits = np.array([[w.max_torque, w.max_speed, w.friction] for w in spacecraft.wheels]).reshape(n, 3)
     return wheels, limits
 
 

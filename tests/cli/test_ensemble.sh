@@ -104,6 +104,20 @@ for between in "--dt 0.1" "--dt 0.1 --scheme splitting --composition suzuki-5 --
     i=$((i + 1))
   done < <(grep -v -e '^#' -e '^rotation' "$tmp/craft.csv")
 done
+# Wheels with viscous friction [W17] (split around the fixed steps): each member its single run.
+printf 'gx,gy,gz,Js,speed0,max_torque,max_speed,friction\n1,0,0,0.0796,10.47,0.2,628.3,0.01\n0,1,0,0.0796,20.94,0.2,628.3,0\n0,0,1,0.0796,31.4,0.2,628.3,0.02\n' >"$tmp/rwc.csv"
+cfr="--wheels $tmp/rwc.csv --controller mrp-pd:3.5,30 --control-period 0.1 --t-end 30 --dt 0.1"
+"$sim" --inertia 900,800,600 $cfr --ensemble "$tmp/craft.csv" --threads 2 >"$tmp/cf2.csv" 2>/dev/null; rc=$?
+"$sim" --inertia 900,800,600 $cfr --ensemble "$tmp/craft.csv" --threads 1 >"$tmp/cf1.csv" 2>/dev/null
+check "closed loops with wheel friction: exit 0, every member ok, 1 and 2 threads the same bytes" \
+  '[ $rc -eq 0 ] && awk -F, "NR>1 && (\$2 != 30 || \$27 != \"ok\") {bad=1} END{exit bad}" "$tmp/cf2.csv" && cmp -s "$tmp/cf1.csv" "$tmp/cf2.csv"'
+i=0
+while IFS=, read -r r1 r2 r3 w1 w2 w3 j1 j2 j3; do
+  "$sim" --inertia "$j1,$j2,$j3" $cfr --rotation "$r1,$r2,$r3" --omega "$w1,$w2,$w3" --every 1000000 >"$tmp/csingle.csv" 2>/dev/null
+  check "closed-loop member $i with wheel friction = last row of its single run, bit for bit" \
+    '[ "$(sed -n "$((i + 2))p" "$tmp/cf2.csv" | cut -d, -f2-19,21-26)" = "$(tail -1 "$tmp/csingle.csv" | cut -d, -f1-18,20-25)" ]'
+  i=$((i + 1))
+done < <(grep -v -e '^#' -e '^rotation' "$tmp/craft.csv")
 printf 'rotation1,rotation2,rotation3,omega1,omega2,omega3\n0,0,0,0.5,0.5,0.5\n0.1,0.2,0.3,0.2,-0.4,0.1\n' >"$tmp/tumble.csv"
 "$sim" --inertia 0.035,0.034,0.01 --scheme splitting --dt 0.25 --t-end 60 --controller bdot:1e5 --control-period 0.25 \
   --orbit-radius 6771e3 --orbit-inclination 51.6 --max-dipole 0.2 --max-step-angle 0.05 --ensemble "$tmp/tumble.csv" >"$tmp/bd.csv" 2>&1; rc=$?

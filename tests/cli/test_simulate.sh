@@ -265,6 +265,15 @@ check "free wheels (a gyrostat, simo-kappa): H (wheels' energy included) and pi 
 "$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --scheme splitting --every 10 >"$tmp/rws.csv" 2>&1; rc=$?
 check "wheels + mrp-pd, the splitting (rotor flow [W14]): exit 0, pi exact, the same attitude as simo-kappa to 1e-3" \
   '[ $rc -eq 0 ] && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rws.csv" && paste -d, "$tmp/rw.csv" "$tmp/rws.csv" | awk -F, "NR>1{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-3) bad=1}} END{exit bad}"'
+# Viscous wheel friction [W17]: the optional eighth column; split around the fixed steps, it
+# keeps pi and only takes energy out (mrp-pd:0,0 commands nothing: H never rises, and falls).
+printf '%s,friction\n1,0,0,0.05,10,0.2,600,0.002\n0,1,0,0.05,-5,0.2,600,0.001\n0,0,1,0.05,0,0.2,inf,0\n' "$wh" >"$tmp/rw3c.csv"
+"$sim" $ctl --wheels "$tmp/rw3c.csv" --controller mrp-pd:1,5 --control-period 0.5 --every 10 >"$tmp/rwc.csv" 2>"$tmp/rwc.err"; rc=$?
+check "wheels with friction + mrp-pd: exit 0, 25 columns, pi exact, wheel speeds other than without friction" \
+  '[ $rc -eq 0 ] && [ ! -s "$tmp/rwc.err" ] && awk -F, "NF!=25{bad=1} NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rwc.csv" && [ "$(tail -1 "$tmp/rwc.csv" | cut -d, -f20-21)" != "$(tail -1 "$tmp/rw.csv" | cut -d, -f20-21)" ]'
+"$sim" $ctl --wheels "$tmp/rw3c.csv" --controller mrp-pd:0,0 --control-period 0.5 --every 10 >"$tmp/rwc0.csv" 2>&1; rc=$?
+check "wheels with friction, no command: H never rises and falls by more than 1 %" \
+  '[ $rc -eq 0 ] && awk -F, "NR==2{h0=\$14; h=\$14} NR>2{if(\$14>h*(1+1e-15)) bad=1; h=\$14} END{exit bad || !(h < 0.99*h0)}" "$tmp/rwc0.csv"'
 # --rtol: adaptive steps over each hold (a new run each hold), rows at every sample and at
 # every accepted step; against the fixed-step run at dt 0.1 and a converged one (order 4, dt 0.01).
 "$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 \
@@ -299,6 +308,7 @@ printf '%s\n1,nan,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw_nan.csv"
 printf '%s\n1,0,0,0,0,0.2,600\n' "$wh" >"$tmp/rw_js.csv"
 printf '%s\n1,0,0,0.05,0,0.2,600\n0,1,0,0.05,0,0.2,600\n' "$wh" >"$tmp/rw2.csv"
 printf 'gx,gy,gz,Js\n1,0,0,0.05\n' >"$tmp/rw_head.csv"
+printf '%s,friction\n1,0,0,0.05,0,0.2,600,-1e-3\n' "$wh" >"$tmp/rw_cneg.csv"
 pd="--controller mrp-pd:1,5 --control-period 0.5"
 for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--wheels $tmp/rw_nan.csv|rw_nan.csv:2: gy: must be finite" \
@@ -325,7 +335,10 @@ for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--max-step-angle 0.1 $pd --rtol 1e-8|--max-step-angle: fixed steps only, not with --rtol" \
            "--orbit-radius 0 $pd|--orbit-radius: must be > 0" \
            "--wheels $tmp/rw3.csv --mgl 1|a control run's scene has wheels" \
-           "--wheels $tmp/rw3.csv --rtol 1e-6 --event nutation-max:terminal|--event nutation-max:terminal: not in a control run"; do
+           "--wheels $tmp/rw3.csv --rtol 1e-6 --event nutation-max:terminal|--event nutation-max:terminal: not in a control run" \
+           "--wheels $tmp/rw_cneg.csv $pd|rw_cneg.csv:2: wheels: wheel 1: friction must be finite and >= 0" \
+           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8|--wheels: a wheel has viscous friction, which needs fixed steps (--dt), not --rtol" \
+           "--wheels $tmp/rw3c.csv|--wheels: a wheel has viscous friction, which the sampled driver applies: give --controller"; do
   flags=${bad%%|*}; want=${bad#*|}
   "$sim" $ctl $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?
   check "control: exit 2, no rows, one line naming the field: $want" \

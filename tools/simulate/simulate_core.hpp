@@ -318,18 +318,19 @@ inline void pick_adaptive_method(Config& c, bool control_given) {
 // ---- end adaptive ----
 
 // ---- control in the loop: the flags ----
-/// Reads --wheels FILE: the header gx,gy,gz,Js,speed0,max_torque,max_speed, then one wheel a
-/// line (blank lines and '#' lines skipped); limits may be 'inf'. Throws invalid_input naming
-/// the file, the line and the field.
+/// Reads --wheels FILE: the header gx,gy,gz,Js,speed0,max_torque,max_speed, optionally followed
+/// by friction (the viscous coefficient c in N m s/rad, [W17]), then one wheel a line (blank
+/// lines and '#' lines skipped); limits may be 'inf'. Throws invalid_input naming the file, the
+/// line and the field.
 inline std::vector<trompo::Wheel<double>> read_wheels(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw invalid_input("--wheels: cannot open '" + path + "': " + std::strerror(errno));
-  static const char* const names[7] = {"gx", "gy", "gz", "Js", "speed0", "max_torque", "max_speed"};
+  static const char* const names[8] = {"gx", "gy", "gz", "Js", "speed0", "max_torque", "max_speed", "friction"};
   std::vector<trompo::Wheel<double>> wheels;
   trompo::ReactionWheels<double> check;
   std::string line;
   long line_no = 0;
-  bool header = false;
+  std::size_t columns = 0;  // 7, or 8 with friction; 0 before the header
   while (std::getline(in, line)) {
     ++line_no;
     const auto first = line.find_first_not_of(" \t\r");
@@ -343,30 +344,33 @@ inline std::vector<trompo::Wheel<double>> read_wheels(const std::string& path) {
     }
     if (!line.empty() && line.back() == ',') fields.emplace_back();
     const std::string where = "--wheels: " + path + ":" + std::to_string(line_no) + ": ";
-    if (!header) {
-      bool same = fields.size() == 7;
-      for (std::size_t i = 0; same && i < 7; ++i) same = fields[i] == names[i];
-      if (!same) throw invalid_input(where + "expected the header gx,gy,gz,Js,speed0,max_torque,max_speed");
-      header = true;
+    if (columns == 0) {
+      bool same = fields.size() == 7 || fields.size() == 8;
+      for (std::size_t i = 0; same && i < fields.size(); ++i) same = fields[i] == names[i];
+      if (!same)
+        throw invalid_input(where + "expected the header gx,gy,gz,Js,speed0,max_torque,max_speed[,friction]");
+      columns = fields.size();
       continue;
     }
-    if (fields.size() != 7) throw invalid_input(where + "expected 7 fields, got " + std::to_string(fields.size()));
-    double v[7];
-    for (int i = 0; i < 7; ++i) {
-      if (i >= 5 && (fields[i] == "inf" || fields[i] == "Inf" || fields[i] == "INF"))
+    if (fields.size() != columns)
+      throw invalid_input(where + "expected " + std::to_string(columns) + " fields, got " + std::to_string(fields.size()));
+    double v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (std::size_t i = 0; i < columns; ++i) {
+      if ((i == 5 || i == 6) && (fields[i] == "inf" || fields[i] == "Inf" || fields[i] == "INF"))
         v[i] = std::numeric_limits<double>::infinity();
       else
         v[i] = parse_number(where + names[i], fields[i]);
     }
-    trompo::Wheel<double> w{.axis = V3(v[0], v[1], v[2]), .inertia = v[3], .speed0 = v[4], .max_torque = v[5], .max_speed = v[6]};
+    trompo::Wheel<double> w{.axis = V3(v[0], v[1], v[2]), .inertia = v[3], .speed0 = v[4], .max_torque = v[5],
+                            .max_speed = v[6], .friction = v[7]};
     try {
-      check.add_wheel(w);  // the library's checks, naming the field (axis, Js, …)
+      check.add_wheel(w);  // the library's checks, naming the field (axis, Js, friction, …)
     } catch (const invalid_input& e) {
       throw invalid_input(where + e.what());
     }
     wheels.push_back(w);
   }
-  if (!header) throw invalid_input("--wheels: " + path + ": no header line");
+  if (columns == 0) throw invalid_input("--wheels: " + path + ": no header line");
   if (wheels.empty()) throw invalid_input("--wheels: " + path + ": no wheels (only a header)");
   return wheels;
 }
@@ -415,6 +419,13 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
   if (k.period && k.controller.empty()) throw invalid_input("--control-period: needs --controller");
   if (k.max_angle && k.controller.empty()) throw invalid_input("--max-step-angle: needs --controller");
   if (k.max_angle && c.adaptive.on) throw invalid_input("--max-step-angle: fixed steps only, not with --rtol");
+  // [W17] Viscous wheel friction is split around the fixed steps of the sampled driver.
+  const bool friction = std::any_of(k.wheels.begin(), k.wheels.end(), [](const auto& w) { return w.friction > 0; });
+  if (friction && c.adaptive.on)
+    throw invalid_input("--wheels: a wheel has viscous friction, which needs fixed steps (--dt), not --rtol");
+  if (friction && k.controller.empty())
+    throw invalid_input("--wheels: a wheel has viscous friction, which the sampled driver applies: give --controller "
+                        "and --control-period");
   if (k.period && !(*k.period > 0)) throw invalid_input("--control-period: must be > 0, got " + flags.at("--control-period"));
   if (k.period && c.dt && *k.period < std::abs(*c.dt))
     throw invalid_input("--control-period: " + flags.at("--control-period") + " is shorter than the step --dt " +

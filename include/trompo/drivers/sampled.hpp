@@ -259,19 +259,30 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
     const Scalar dt = t_b - t_a;
     const Traj saved = traj;
     const ReactionWheels<Scalar> wheels_saved = rw;
+    const auto fail = [&](StepStatus status) {
+      traj = saved;
+      rw = wheels_saved;
+      sum.status = status;
+      return false;
+    };
+    // A friction flow whose result is not finite (an overflowing c Δt) fails the interval as
+    // a step would: nothing is kept.
     rw.friction_flow(t_a, dt / Scalar(2), traj.omega);
+    if (!detail::all_finite(traj.omega) || !detail::all_finite(rw.momenta(t_a))) {
+      ++sum.failures;
+      return fail(StepStatus::non_finite);
+    }
     const IntegrationSummary<Scalar> s =
         integrate_steps(std::as_const(stepper), traj, t_b, dt, NoObserver{}, between.options);
     sum.steps += s.steps + s.substeps;
     sum.failures += s.failures;
     sum.iterations += s.iterations;
-    sum.status = s.status;
-    if (!s.ok()) {
-      traj = saved;
-      rw = wheels_saved;
-      return false;
-    }
+    if (!s.ok()) return fail(s.status);
     rw.friction_flow(t_b, dt / Scalar(2), traj.omega);
+    if (!detail::all_finite(traj.omega) || !detail::all_finite(rw.momenta(t_b))) {
+      ++sum.failures;
+      return fail(StepStatus::non_finite);
+    }
     if constexpr (!std::is_same_v<std::decay_t<Obs>, NoObserver>) obs(static_cast<const State<Scalar>&>(traj));
   }
   return true;

@@ -127,6 +127,17 @@ class ReactionWheels {
   const WheelVector& max_speeds() const { return w_max_; }
   /// Viscous friction coefficients c_i [W17].
   const WheelVector& frictions() const { return c_; }
+  /// Sets wheel i's viscous friction coefficient c ≥ 0 [W17] (per-member dispersion in an
+  /// ensemble's setup; prepare_friction again before friction_flow). Throws invalid_input
+  /// naming the wheel for a bad index or a c that is negative or not finite.
+  void set_friction(int i, Scalar c) {
+    const std::string name = "wheels: wheel " + std::to_string(i + 1) + ": ";
+    if (i < 0 || i >= n_) detail::fail(name, "no such wheel (", n_, " wheels)");
+    if (!std::isfinite(static_cast<double>(c)) || !(c >= Scalar(0)))
+      detail::fail(name, "friction must be finite and >= 0 (N m s/rad), got ", c);
+    c_(i) = c;
+    friction_ready_ = false;
+  }
   /// Whether some wheel has viscous friction (c_i > 0) [W17].
   bool has_friction() const {
     for (int i = 0; i < n_; ++i)

@@ -299,6 +299,14 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
     a = np.array([[float(x) for x in line.split(",")] for line in p.stdout.splitlines()[1:]])
     np.testing.assert_array_equal(res.R.reshape(-1, 9), a[:, 1:10])
     np.testing.assert_array_equal(res.wheel_speeds, a[:, 19:22])
+    # In an ensemble: each member its single run with the same lossy wheels, bit for bit.
+    om = np.array([[0.02, -0.01, 0.03], [0.0, 0.05, -0.02]])
+    e = trompo.control_ensemble(sc, np.array([np.eye(3)] * 2), om, 20.0, dt=0.1, period=0.5,
+                                controller=trompo.MrpPd(1, 5), threads=2)
+    for i in range(2):
+        single = trompo.control(sc, trompo.initial_state(rotation=np.eye(3), omega=om[i]), 20.0, dt=0.1, period=0.5,
+                                controller=trompo.MrpPd(1, 5), every=10**6)
+        assert np.array_equal(e["R"][i], single.R[-1]) and np.array_equal(e["wheel_speeds"][i], single.wheel_speeds[-1])
     with pytest.raises(ValueError, match="^friction: must be >= 0"):
         trompo.Wheel((1, 0, 0), 0.05, friction=-1.0)
     with pytest.raises(ValueError, match="viscous friction, which needs fixed steps \\(dt\\), not rtol"):

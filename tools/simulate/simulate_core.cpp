@@ -557,6 +557,15 @@ struct ControlStepper {
     iterations += rep.iterations;
     return rep;
   }
+  // A composed step with the wheels' friction flow around each sub-step (docs/theory.md [W17]).
+  template <class StateT, class Flow>
+  trompo::StepReport<double> step(StateT& s, double h, Flow&& flow) const
+    requires requires(const StepperT& x) { x.step(s, h, flow); }
+  {
+    const auto rep = inner.step(s, h, flow);
+    iterations += rep.iterations;
+    return rep;
+  }
 };
 
 /// Between the samples with --rtol: integrate_adaptive over each hold (a new run each hold,

@@ -238,10 +238,73 @@ void hold_command(Scene& scene, const Command<typename Scene::Scalar>& c, const 
 }
 
 namespace detail {
-/// [W17] A hold of fixed steps with the wheels' viscous friction split around each step (Strang):
-/// F(Δ/2) ∘ Φ_Δ ∘ F(Δ/2), F the exact friction flow (ReactionWheels::friction_flow) and Φ the
-/// stepper's step (integrate's recovery inside the interval). The grid is integrate's; a
-/// failed interval leaves the state and the wheels' hold as they were at its start.
+/// [W17] One attempt of the split over [t_a, t_b], Δ = t_b − t_a, from traj at t_a: F(Δ/2) ∘ Φ_Δ ∘
+/// F(Δ/2), F the exact friction flow and Φ the stepper's step, of order 2; a ComposedStepper
+/// splits F around each of its sub-steps instead (ComposedStepper::step with a flow), so that
+/// it keeps its order. A flow whose result is not finite fails as non-finite. On failure traj
+/// and the wheels may be partly advanced: the caller restores them.
+template <class StepperT, class Traj>
+StepReport<typename StepperT::Scalar> friction_split_attempt(const StepperT& stepper,
+                                                             ReactionWheels<typename StepperT::Scalar>& rw, Traj& traj,
+                                                             typename StepperT::Scalar t_b) {
+  using Scalar = typename StepperT::Scalar;
+  const Scalar dt = t_b - traj.time;
+  const auto flow = [&rw](State<Scalar>& s, Scalar tau) { rw.friction_flow(s.time, tau, s.omega); };
+  const auto finite = [&] { return detail::all_finite(traj.omega) && detail::all_finite(rw.momenta(traj.time)); };
+  StepReport<Scalar> rep;
+  if constexpr (requires { stepper.step(traj, dt, flow); }) {
+    rep = stepper.step(traj, dt, flow);
+    if (!rep.ok()) return rep;
+  } else {
+    flow(traj, dt / Scalar(2));
+    if (!finite()) {
+      rep.status = StepStatus::non_finite;
+      return rep;
+    }
+    rep = stepper.step(traj, dt);
+    if (!rep.ok()) return rep;
+    traj.time = t_b;
+    flow(traj, dt / Scalar(2));
+  }
+  traj.time = t_b;
+  if (!finite()) rep.status = StepStatus::non_finite;
+  return rep;
+}
+
+/// [W17] The split over [t_a, t_b], with integrate's recovery: an interval that fails is tried
+/// again as two halves, each recursively, down to `depth_left` halvings; a piece that still
+/// fails stops it with the state and the wheels as they were at that piece's start. (A
+/// composed step commits its memory on success only, so its state alone is saved; another
+/// stepper's last flow comes after its step's commit, so the trajectory is.)
+template <class StepperT, class Traj>
+bool friction_split_interval(const StepperT& stepper, ReactionWheels<typename StepperT::Scalar>& rw, Traj& traj,
+                             typename StepperT::Scalar t_b, int depth_left, SampledSummary<typename StepperT::Scalar>& sum) {
+  using Scalar = typename StepperT::Scalar;
+  const auto flow = [](State<Scalar>&, Scalar) {};
+  using Saved = std::conditional_t<requires { stepper.step(traj, t_b, flow); }, State<Scalar>, Traj>;
+  const Saved saved = traj;
+  const ReactionWheels<Scalar> wheels_saved = rw;
+  const StepReport<Scalar> rep = friction_split_attempt(stepper, rw, traj, t_b);
+  sum.iterations += rep.iterations;
+  if (rep.ok()) {
+    ++sum.steps;
+    return true;
+  }
+  ++sum.failures;
+  static_cast<Saved&>(traj) = saved;
+  rw = wheels_saved;
+  const Scalar t_mid = traj.time + (t_b - traj.time) / Scalar(2);
+  if (depth_left <= 0 || !detail::resolves(t_mid - traj.time, traj.time, t_b)) {
+    sum.status = rep.status;
+    return false;
+  }
+  return friction_split_interval(stepper, rw, traj, t_mid, depth_left - 1, sum) &&
+         friction_split_interval(stepper, rw, traj, t_b, depth_left - 1, sum);
+}
+
+/// [W17] A hold of fixed steps with the wheels' viscous friction split around each step (see
+/// friction_split_attempt), on integrate's grid, each interval with integrate's recovery; the
+/// observer at each grid point.
 template <class StepperT, class Traj, class Obs>
 bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scalar t_next,
                           const FixedSteps<typename StepperT::Scalar>& between, Obs&& obs,
@@ -252,37 +315,12 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
   const Scalar step = between.step_for(traj.omega.norm(), t_next - t0);
   if (!std::isfinite(static_cast<double>(step)) || step == Scalar(0) || (step > Scalar(0)) != (t_next > t0))
     detail::fail("integrate: time step h must be finite, non-zero and in the direction of the run, got ", step);
+  if (between.options.max_halvings < 0)
+    detail::fail("integrate: max_halvings must be >= 0, got ", between.options.max_halvings);
   const std::int64_t n = grid_steps(t0, t_next, step);
   for (std::int64_t k = 1; k <= n; ++k) {
-    const Scalar t_a = traj.time;
     const Scalar t_b = k == n ? t_next : t0 + static_cast<Scalar>(k) * step;
-    const Scalar dt = t_b - t_a;
-    const Traj saved = traj;
-    const ReactionWheels<Scalar> wheels_saved = rw;
-    const auto fail = [&](StepStatus status) {
-      traj = saved;
-      rw = wheels_saved;
-      sum.status = status;
-      return false;
-    };
-    // A friction flow whose result is not finite (an overflowing c Δt) fails the interval as
-    // a step would: nothing is kept.
-    rw.friction_flow(t_a, dt / Scalar(2), traj.omega);
-    if (!detail::all_finite(traj.omega) || !detail::all_finite(rw.momenta(t_a))) {
-      ++sum.failures;
-      return fail(StepStatus::non_finite);
-    }
-    const IntegrationSummary<Scalar> s =
-        integrate_steps(std::as_const(stepper), traj, t_b, dt, NoObserver{}, between.options);
-    sum.steps += s.steps + s.substeps;
-    sum.failures += s.failures;
-    sum.iterations += s.iterations;
-    if (!s.ok()) return fail(s.status);
-    rw.friction_flow(t_b, dt / Scalar(2), traj.omega);
-    if (!detail::all_finite(traj.omega) || !detail::all_finite(rw.momenta(t_b))) {
-      ++sum.failures;
-      return fail(StepStatus::non_finite);
-    }
+    if (!friction_split_interval(std::as_const(stepper), rw, traj, t_b, between.options.max_halvings, sum)) return false;
     if constexpr (!std::is_same_v<std::decay_t<Obs>, NoObserver>) obs(static_cast<const State<Scalar>&>(traj));
   }
   return true;

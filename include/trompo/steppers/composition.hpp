@@ -54,6 +54,9 @@
 namespace trompo {
 
 namespace detail {
+/// No flow between the sub-steps (ComposedStepper::step's default).
+struct NoFlow {};
+
 /// The memory of a composed stepper: one base memory per sub-step index, or nothing.
 template <class BaseMemory, int N>
 struct composed_memory {
@@ -122,7 +125,34 @@ class ComposedStepper : public detail::CompositionCore<Scheme, Scene_> {
   /// that sub-step's status. `iterations` is the sum over the sub-steps taken, `residual`
   /// the largest sub-step residual.
   StepReport<Scalar> step(State<Scalar>& state, Memory& memory, Scalar h) const {
-    if (coefficients_.stages == 1) return this->base_.step(state, base_memory(memory, 0), h);
+    return step(state, memory, h, detail::NoFlow{});
+  }
+
+  /// The step with an exact flow `flow(s, τ)` split around each sub-step (the sampled
+  /// driver's wheel friction, docs/theory.md [W17]): the composition of the symmetric steps
+  /// F(γ_iτ/2) Φ_{γ_ih} F(γ_iτ/2), adjacent flows merged, so that flow is called on the working
+  /// state with τ = γ_1h/2 before the first sub-step, (γ_{i−1} + γ_i)h/2 before sub-step i and
+  /// γ_sh/2 after the last; with a symmetric base and a flow with F_aF_b = F_{a+b} it is of the
+  /// composition's order. The same contract; a flow that leaves Ω not finite fails the step as
+  /// non_finite. (What else the flow changes, the wheels' hold, is the caller's to restore.)
+  template <class Flow>
+  StepReport<Scalar> step(TrajectoryType& traj, Scalar h, Flow&& flow) const {
+    return step(traj.state(), traj.memory, h, flow);
+  }
+  /// The same on a plain State (memoryless base schemes, or memory that is only a hint).
+  template <class Flow>
+  StepReport<Scalar> step(State<Scalar>& state, Scalar h, Flow&& flow) const {
+    static_assert(memory_is_hint_v<Scheme, Scene>,
+                  "ComposedStepper::step(State&, h, flow): the base scheme carries memory between steps; step a "
+                  "Trajectory instead");
+    Memory memory{};
+    return step(state, memory, h, flow);
+  }
+  /// The same on (state, memory).
+  template <class Flow>
+  StepReport<Scalar> step(State<Scalar>& state, Memory& memory, Scalar h, Flow&& flow) const {
+    constexpr bool flows = !std::is_same_v<std::decay_t<Flow>, detail::NoFlow>;
+    if (!flows && coefficients_.stages == 1) return this->base_.step(state, base_memory(memory, 0), h);
     if (StepReport<Scalar> refused = detail::check_step_size(h); !refused.ok()) return refused;
     State<Scalar> s = state;
     // Sub-step i steps its own entry memory[i] in place: the base Stepper changes it only
@@ -145,14 +175,20 @@ class ComposedStepper : public detail::CompositionCore<Scheme, Scene_> {
       if constexpr (!std::is_same_v<Memory, NoMemory>) {
         std::construct_at(&saved[i].memory, memory[i]);
         filled = i + 1;
-      } else {
-        (void)i;
       }
+      if constexpr (flows)
+        flow(s, (i == 0 ? coefficients_.gamma[0] : coefficients_.gamma[i - 1] + coefficients_.gamma[i]) * h / Scalar(2));
+      else
+        (void)i;
     };
-    const StepReport<Scalar> total = this->base_steps(
+    StepReport<Scalar> total = this->base_steps(
         s, static_cast<std::size_t>(coefficients_.stages), [&](std::size_t i) { return coefficients_.gamma[i]; }, h,
         state.time + h,  // Σγ_i h differs from h by round-off: end exactly at t_n + h, as Stepper does
         [&](std::size_t i) -> BaseMemory& { return base_memory(memory, static_cast<int>(i)); }, save);
+    if constexpr (flows) {
+      if (total.ok()) flow(s, coefficients_.gamma[static_cast<std::size_t>(coefficients_.stages - 1)] * h / Scalar(2));
+      if (total.ok() && !detail::all_finite(s.omega)) total.status = StepStatus::non_finite;
+    }
     // The sub-steps before the failed one (the last saved) changed their entries: undo them.
     if (!total.ok() && filled > 0) copy_used(saved, static_cast<int>(filled) - 1, memory);
     for (std::size_t i = 0; i < filled; ++i) std::destroy_at(&saved[i].memory);

@@ -283,7 +283,7 @@ bool friction_split_interval(const StepperT& stepper, ReactionWheels<typename St
   const auto flow = [](State<Scalar>&, Scalar) {};
   using Saved = std::conditional_t<requires { stepper.step(traj, t_b, flow); }, State<Scalar>, Traj>;
   const Saved saved = traj;
-  const ReactionWheels<Scalar> wheels_saved = rw;
+  const typename ReactionWheels<Scalar>::HoldLine line = rw.hold_line();
   const StepReport<Scalar> rep = friction_split_attempt(stepper, rw, traj, t_b);
   sum.iterations += rep.iterations;
   if (rep.ok()) {
@@ -292,7 +292,7 @@ bool friction_split_interval(const StepperT& stepper, ReactionWheels<typename St
   }
   ++sum.failures;
   static_cast<Saved&>(traj) = saved;
-  rw = wheels_saved;
+  rw.set_hold_line(line);
   const Scalar t_mid = traj.time + (t_b - traj.time) / Scalar(2);
   if (depth_left <= 0 || !detail::resolves(t_mid - traj.time, traj.time, t_b)) {
     sum.status = rep.status;

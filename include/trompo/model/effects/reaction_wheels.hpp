@@ -191,6 +191,19 @@ class ReactionWheels {
     return s;
   }
 
+  /// The hold's line: h_i(t_k) and t_k, what hold() and friction_flow move (u aside).
+  struct HoldLine {
+    WheelVector momenta;  ///< h_i(t_k)
+    Scalar time;          ///< t_k
+  };
+  /// The hold's line, to put back with set_hold_line (a driver's failed interval, [W17]).
+  HoldLine hold_line() const { return {h_k_, t_k_}; }
+  /// Puts a hold's line back (from hold_line(); the held u is unchanged).
+  void set_hold_line(const HoldLine& line) {
+    h_k_ = line.momenta;
+    t_k_ = line.time;
+  }
+
   /// The held motor torques u.
   const WheelVector& torques() const { return u_; }
   /// The start of the hold, t_k.
@@ -283,9 +296,10 @@ class ReactionWheels {
       WheelVector z = Q_.transpose() * y;
       for (int a = 0; a < m_; ++a) {
         const Scalar d = d_(a);
-        // (1 − e^{−dτ})/d and (1 − e^{−2dτ})/(2d) by expm1; τ and τ for d = 0.
+        // φ = (1 − e^{−dτ})/d by expm1 (τ for d = 0), and (1 − e^{−2dτ})/(2d) = φ(1 + e^{−dτ})/2
+        // = φ − dφ²/2 from it (e^{−dτ} = 1 − dφ): one exponential a mode.
         const Scalar phi = d > Scalar(0) ? -expm1(-d * tau) / d : tau;
-        const Scalar phi2 = d > Scalar(0) ? -expm1(Scalar(-2) * d * tau) / (Scalar(2) * d) : tau;
+        const Scalar phi2 = phi - d * phi * phi / Scalar(2);
         dissipated += z(a) * z(a) * phi2;
         z(a) *= phi;
       }

@@ -24,6 +24,11 @@
 // wheels' hold still describes h_i at that state's time, and the controller's memory is that
 // of the last sample, so the run can go on from there.
 //
+// Wheels with viscous friction [W17]: FixedSteps splits the friction's exact flow around each
+// step (around each sub-step of a ComposedStepper, which so keeps its order), with integrate's
+// grid and recovery by halves; a failed interval keeps the state and the wheels' hold line.
+// AdaptiveSteps refuses them (its error estimate would not see the flow).
+//
 // The observer, if given, is called as observer(const State&) at t_0 and at each grid point
 // after it, once; at a sample it is called after the new command is held, so that
 // stepper.scene() shows the command that starts there.

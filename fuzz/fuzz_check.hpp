@@ -627,7 +627,14 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
           sum = integrate_sampled(st, s, t_end, period, ctrl, AdaptiveSteps<double>{opt});
         } else {
           maybe_friction(st);
-          sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+          if (in.byte() & 1) {
+            // Simo-κ's triple jump: with friction its flows around each sub-step (one byte
+            // more: a corpus input that ends before it keeps its single-step run).
+            ComposedStepper<SimoKappa, Scene> composed(SimoKappa{}, st.scene(), 4);
+            sum = integrate_sampled(composed, s, t_end, period, ctrl, FixedSteps<double>{h});
+          } else {
+            sum = integrate_sampled(st, s, t_end, period, ctrl, FixedSteps<double>{h});
+          }
         }
         break;
       }

@@ -130,7 +130,7 @@ class ComposedStepper : public detail::CompositionCore<Scheme, Scene_> {
 
   /// The step with an exact flow `flow(s, τ)` split around each sub-step (the sampled
   /// driver's wheel friction, docs/theory.md [W17]): the composition of the symmetric steps
-  /// F(γ_iτ/2) Φ_{γ_ih} F(γ_iτ/2), adjacent flows merged, so that flow is called on the working
+  /// F(γ_ih/2) Φ_{γ_ih} F(γ_ih/2), adjacent flows merged, so that flow is called on the working
   /// state with τ = γ_1h/2 before the first sub-step, (γ_{i−1} + γ_i)h/2 before sub-step i and
   /// γ_sh/2 after the last; with a symmetric base and a flow with F_aF_b = F_{a+b} it is of the
   /// composition's order. The same contract; a flow that leaves Ω not finite fails the step as

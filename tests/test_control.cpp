@@ -13,13 +13,12 @@
 
 using namespace trompo;
 using trompo_test::Mat3;
+using trompo_test::rpm;
 using trompo_test::Vec3;
-using Wheels = ReactionWheels<double>;
-using WheelVector = Wheels::WheelVector;
+using trompo_test::WheelVector;
+using trompo_test::Wheels;
 
 namespace {
-
-constexpr double rpm = 2.0 * 3.14159265358979323846 / 60.0;
 
 /// A controller that replays a schedule: u(t) for the wheels.
 struct Schedule {

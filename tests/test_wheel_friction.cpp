@@ -11,13 +11,12 @@
 
 using namespace trompo;
 using trompo_test::Mat3;
+using trompo_test::rpm;
 using trompo_test::Vec3;
-using Wheels = ReactionWheels<double>;
-using WheelVector = Wheels::WheelVector;
+using trompo_test::WheelVector;
+using trompo_test::Wheels;
 
 namespace {
-
-constexpr double rpm = 2.0 * 3.14159265358979323846 / 60.0;
 
 /// A controller that holds u = `u_of(t)` on every wheel (one value per wheel).
 struct HoldEach {

@@ -22,6 +22,11 @@ namespace trompo_test {
 
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
+/// Reaction wheels of double and their per-wheel vector (the control and friction tests).
+using Wheels = trompo::ReactionWheels<double>;
+using WheelVector = Wheels::WheelVector;
+/// One revolution per minute, in rad/s.
+inline constexpr double rpm = 2.0 * 3.14159265358979323846 / 60.0;
 
 // ---- deterministic random numbers ---------------------------------------------------
 /// std::mt19937_64 is fully specified by the standard; the distributions are not, so the

@@ -99,8 +99,7 @@ class ReactionWheels {
     if (!std::isfinite(static_cast<double>(w.speed0))) detail::fail(name, "speed0 must be finite, got ", w.speed0);
     if (!(w.max_torque > Scalar(0))) detail::fail(name, "max_torque must be > 0, got ", w.max_torque);
     if (!(w.max_speed > Scalar(0))) detail::fail(name, "max_speed must be > 0, got ", w.max_speed);
-    if (!std::isfinite(static_cast<double>(w.friction)) || !(w.friction >= Scalar(0)))
-      detail::fail(name, "friction must be finite and >= 0 (N m s/rad), got ", w.friction);
+    check_friction(name, w.friction);
     ++n_;
     axes_.conservativeResize(3, n_);
     axes_.col(i) = w.axis.normalized();
@@ -134,8 +133,7 @@ class ReactionWheels {
   void set_friction(int i, Scalar c) {
     const std::string name = "wheels: wheel " + std::to_string(i + 1) + ": ";
     if (i < 0 || i >= n_) detail::fail(name, "no such wheel (", n_, " wheels)");
-    if (!std::isfinite(static_cast<double>(c)) || !(c >= Scalar(0)))
-      detail::fail(name, "friction must be finite and >= 0 (N m s/rad), got ", c);
+    check_friction(name, c);
     c_(i) = c;
     friction_ready_ = false;
   }
@@ -331,6 +329,11 @@ class ReactionWheels {
   Cache cache(const Matrix3& /*Lambda_n*/, Scalar /*t_mid*/) const { return {}; }
 
  private:
+  /// A friction coefficient must be finite and ≥ 0 (add_wheel, set_friction).
+  static void check_friction(const std::string& name, Scalar c) {
+    if (!std::isfinite(static_cast<double>(c)) || !(c >= Scalar(0)))
+      detail::fail(name, "friction must be finite and >= 0 (N m s/rad), got ", c);
+  }
   static void resize_and_set(WheelVector& v, int i, Scalar x) {
     v.conservativeResize(i + 1);
     v(i) = x;

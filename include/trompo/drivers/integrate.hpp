@@ -237,6 +237,16 @@ std::int64_t grid_steps(Scalar t0, Scalar t_end, Scalar h) {
   return n_real < Scalar(1) ? 1 : static_cast<std::int64_t>(n_real);
 }
 
+/// integrate's checks of its step and options: h finite and non-zero, max_halvings ≥ 0
+/// (throws invalid_input); integrate_steps and the sampled driver's friction split use them.
+template <class Scalar>
+void check_step_options(Scalar h, const IntegrateOptions& options) {
+  using std::isfinite;
+  if (!static_cast<bool>(isfinite(h)) || h == Scalar(0))
+    detail::fail("integrate: time step h must be finite and non-zero, got ", h);
+  if (options.max_halvings < 0) detail::fail("integrate: max_halvings must be >= 0, got ", options.max_halvings);
+}
+
 /// Whether a plain State is integrated with a stepper whose scheme carries memory.
 template <class Stepper, class StateT>
 constexpr bool needs_trajectory() {
@@ -294,7 +304,7 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
   using std::isfinite;
   const auto finite = [](Scalar x) { return static_cast<bool>(isfinite(x)); };
 
-  if (!finite(h) || h == Scalar(0)) detail::fail("integrate: time step h must be finite and non-zero, got ", h);
+  check_step_options(h, options);
   if (!finite(t_end)) detail::fail("integrate: end time t_end must be finite, got ", t_end);
   if constexpr (requires { stepper.output(state); }) {
     // A trajectory left with its output pending (ProcessedStepper::advance by hand): start
@@ -315,7 +325,6 @@ IntegrationSummary<typename Stepper::Scalar> integrate_steps(const Stepper& step
   if ((h > 0 && span < 0) || (h < 0 && span > 0))
     detail::fail("integrate: end time t_end = ", t_end, " is behind the start t0 = ", t0,
                  " for the direction of h = ", h);
-  if (options.max_halvings < 0) detail::fail("integrate: max_halvings must be >= 0, got ", options.max_halvings);
 
   IntegrationSummary<Scalar> sum;
   sum.time = t0;

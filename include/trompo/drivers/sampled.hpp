@@ -318,10 +318,9 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
   auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
   const Scalar t0 = traj.time;
   const Scalar step = between.step_for(traj.omega.norm(), t_next - t0);
-  if (!std::isfinite(static_cast<double>(step)) || step == Scalar(0) || (step > Scalar(0)) != (t_next > t0))
-    detail::fail("integrate: time step h must be finite, non-zero and in the direction of the run, got ", step);
-  if (between.options.max_halvings < 0)
-    detail::fail("integrate: max_halvings must be >= 0, got ", between.options.max_halvings);
+  check_step_options(step, between.options);
+  if ((step > Scalar(0)) != (t_next > t0))
+    detail::fail("integrate: time step h = ", step, " is against the direction of the run to ", t_next);
   const std::int64_t n = grid_steps(t0, t_next, step);
   for (std::int64_t k = 1; k <= n; ++k) {
     const Scalar t_b = k == n ? t_next : t0 + static_cast<Scalar>(k) * step;

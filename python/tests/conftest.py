@@ -4,6 +4,9 @@ import importlib
 import os
 import pathlib
 import subprocess
+import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -63,3 +66,50 @@ def same_rows(a, b):
         assert a[k].shape == b[k].shape, k
         assert np.array_equal(a[k], b[k]), k
     return True
+
+
+#: trompo's functions whose one call is into the C++ engine (simulate_flags, control_run):
+#: while a run is inside C++, the innermost Python frame of its thread is one of these, on
+#: the line of that call.
+ENGINE_CALLERS = ("_run_engine", "control.<locals>.run")
+
+
+def engine_ran_beside_python(run, cpu_seconds=0.02):
+    """Runs run() (one call into the engine) on a thread while this thread runs Python, and
+    says whether the engine's thread spent `cpu_seconds` of its own CPU time inside C++
+    while this one ran: that is possible only where the engine releases the GIL. Returns
+    (seen, run's result, run's exception).
+
+    No timing and no race: this thread loops, reading the engine thread's innermost Python
+    frame and its CPU clock (time.pthread_getcpuclockid) with the GIL held, and letting the
+    GIL go between readings (the run's callbacks take it). Two readings with that frame an
+    engine caller past its first line (ENGINE_CALLERS: the call into C++ is in progress) and
+    `cpu_seconds` between them show C++ running beside this thread. Were the GIL held across
+    C++, this thread would read the engine's thread only in its callbacks, before the call or
+    once it returned (then it goes on, or waits for the GIL using no CPU), and `seen` would be
+    False. `cpu_seconds` is small beside the runs the tests give (0.1 s and more of C++)."""
+    import trompo
+    box = {}
+
+    def target():
+        try:
+            box["result"] = run()
+        except BaseException as e:  # raised again by the test, on its thread
+            box["error"] = e
+
+    thread = threading.Thread(target=target)
+    thread.start()
+    clock = time.pthread_getcpuclockid(thread.ident)
+    first, seen = None, False
+    while thread.is_alive() and not seen:
+        frame = sys._current_frames().get(thread.ident)
+        code = frame.f_code if frame is not None else None
+        in_cpp = (code is not None and code.co_filename == trompo.__file__ and code.co_qualname in ENGINE_CALLERS
+                  and frame.f_lineno != code.co_firstlineno)
+        if in_cpp:
+            cpu = time.clock_gettime(clock)
+            first = cpu if first is None else first
+            seen = cpu - first >= cpu_seconds
+        time.sleep(0)
+    thread.join()
+    return seen, box.get("result"), box.get("error")

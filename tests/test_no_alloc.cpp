@@ -197,3 +197,60 @@ TEST_CASE("no heap allocation in the processed composition (step, advance, outpu
   CHECK(sum.ok());
   CHECK(sum.steps == 11);
 }
+
+// The closed loop of docs/control.md: the sampled driver with its built-in controllers, the
+// wheels' hold and saturation, the friction split around plain and composed steps [W17],
+// adaptive steps between the samples, and magnetorquers with B-dot. What a controller of
+// the user's allocates is the user's; the built-ins allocate nothing.
+TEST_CASE("no heap allocation in the closed loop: wheels, friction, adaptive holds, magnetorquers", "[no_alloc][control]") {
+  using Wheels = ReactionWheels<double>;
+  using Sc = Scene<double, Wheels>;
+  Wheels rw;
+  for (int i = 0; i < 3; ++i)
+    rw.add_wheel({.axis = Vec3::Unit(i), .inertia = 0.08, .speed0 = 100.0 * (i + 1), .max_torque = 0.2, .max_speed = 600.0});
+  Wheels rw_friction = rw;
+  for (int i = 0; i < 3; ++i) rw_friction.set_friction(i, 0.01);
+  const Mat3 J = Vec3(900, 800, 600).asDiagonal();
+  State<double> s0;
+  s0.rotation = SO3d::exp(Vec3(0.1, 0.2, -0.3));
+  s0.omega = Vec3(0.001, -0.01, 0.03);
+  auto loop = [&](auto stepper, const auto& between) {
+    State<double> s = s0;
+    stepper.scene().template effect<Wheels>().start(s.time, s.omega);
+    MrpPd<double> pd{.K = 3.5, .P = 30};
+    SampledSummary<double> sum;
+    const long count = allocations_in([&] { sum = integrate_sampled(stepper, s, 5.0, 0.1, pd, between); });
+    CHECK(count == 0);
+    CHECK(sum.ok());
+    CHECK(sum.samples == 50);
+  };
+  SECTION("fixed steps, plain and composed, and the splitting") {
+    loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw)), FixedSteps<double>{0.05});
+    loop(ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw), 6), FixedSteps<double>{0.1});
+    loop(Stepper<Splitting, Sc>(Splitting(SplittingMethod::kahan_li_9), Sc(rw.hub_body(J), rw)), FixedSteps<double>{0.1});
+  }
+  SECTION("friction split around plain and composed steps") {
+    loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw_friction.hub_body(J), rw_friction)), FixedSteps<double>{0.05});
+    loop(ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw_friction.hub_body(J), rw_friction), 4), FixedSteps<double>{0.1});
+  }
+  SECTION("adaptive steps between the samples") {
+    loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw)), AdaptiveSteps<double>{{.rtol = 1e-8, .atol = 1e-8}});
+  }
+  SECTION("magnetorquers and B-dot") {
+    using Mag = Scene<double, Magnetorquer<double>>;
+    const CircularOrbit<double> orbit(6771e3, 0.9, 0.3, 0.2);
+    Stepper<Splitting, Mag> stepper(Splitting(SplittingMethod::kahan_li_9),
+                                    Mag(RigidBody<double>(Vec3(0.033, 0.034, 0.007), allow_unphysical_inertia),
+                                        Magnetorquer<double>(DipoleField<double>(orbit), Vec3::Constant(0.2))));
+    State<double> s;
+    s.omega = Vec3::Constant(0.5);
+    BDot<double> bdot{.k = 1e4};
+    SampledSummary<double> sum;
+    const long count = allocations_in([&] {
+      sum = integrate_sampled(stepper, s, 10.0, 0.25, bdot, FixedSteps<double>{0.25, {}, 0.15});
+    });
+    CHECK(count == 0);
+    CHECK(sum.ok());
+    CHECK(sum.samples == 40);
+  }
+}

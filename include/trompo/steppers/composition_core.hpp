@@ -73,6 +73,8 @@ class CompositionCore {
   StepReport<Scalar> base_steps(State<Scalar>& s, std::size_t n, Weight&& weight, Scalar h, Scalar t_end,
                                 MemoryOf&& memory_of, Before&& before) const {
     StepReport<Scalar> total;
+    const Scalar t_start = s.time;
+    [[maybe_unused]] Scalar c(0);  // Σ_{j<k} weight(j): sub-step k starts at t_start + c·h (with wheels)
     for (std::size_t k = 0; k < n; ++k) {
       before(k);
       // The compensated state's residue (docs/theory.md §18) belongs to the state, not to a
@@ -80,11 +82,20 @@ class CompositionCore {
       // (the first from the last sub-step of the previous step).
       if constexpr (requires(BaseMemory& m) { m.residue; })
         memory_of(k).residue = memory_of((k + n - 1) % n).residue;
-      // With wheels the last sub-step ends at t_end itself (see integrate.hpp, attempt()): a
-      // time set afterwards would move h_w(t) outside any step.
-      const Scalar dt = Scene::has_wheels && k + 1 == n ? t_end - s.time : weight(k) * h;
+      Scalar dt = weight(k) * h;
+      [[maybe_unused]] Scalar t_next = t_end;  // where sub-step k ends (with wheels)
+      if constexpr (Scene::has_wheels) {
+        // With wheels, the clock of a composed step (docs/theory.md [W4]): sub-step k spans
+        // t_{k+1} − t_k between times t_k = t_start + c_k·h rounded once each, the last ending
+        // at t_end itself (as integrate.hpp's attempt() does for whole steps), so that the
+        // sub-steps cover t_end − t_start exactly and h_w(t) telescopes from one to the next.
+        c += weight(k);
+        if (k + 1 < n) t_next = t_start + c * h;
+        dt = t_next - s.time;
+      }
       total.absorb(base_.step(s, memory_of(k), dt));
       if (!total.ok()) return total;
+      if constexpr (Scene::has_wheels) s.time = t_next;
     }
     s.time = t_end;
     return total;

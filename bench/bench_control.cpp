@@ -27,13 +27,17 @@
 //   bdot      fast loop (a): a 3U-like body J = diag(0.033, 0.034, 0.007) kg m² tumbling at
 //             30 °/s per axis, magnetorquers of 0.2 A m² per axis in the IGRF-13 dipole along
 //             the same orbit, B-dot m = −k Ḃ with k = 1e4 A m² s/T at 4 Hz, 10 orbits.
+//   rw-friction  rw with viscous friction c = 1e-4 N m s/rad on each wheel (Basilisk's
+//             cViscous), split around the steps [W17]: what friction costs against the rw rows
+//             of the same run. trompo's methods only: odeint's state has no wheel momenta, so
+//             it cannot carry friction.
 //   spinner   fast loop (b): J = diag(120, 100, 150) spinning at 60 rpm about its major axis
 //             with a nutation of 0.6 rad/s, three wheels on the body axes (J_s = 0.05,
 //             u_max = 0.5 N m); the wheels damp the transverse rates (L_r = −P(Ω1, Ω2, 0),
 //             P = 20) at 20 Hz, 300 s.
 // References: the splitting (Kahan–Li-9) at 64 steps a sample (bdot: 16), cross-checked against
 // Simo-κ composed to order 6 at 32 steps a sample (bdot: 8): their distance is the counter
-// ref_check, the floor of every err_rot.
+// ref_check, the floor of every err_rot. rw-friction: the other way round (reference()).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -80,6 +84,8 @@ struct RwCase {
   static constexpr const char* name = "rw";
   static constexpr double period = 0.1, t_end = 600;
   static constexpr bool momentum_exact = true;
+  static constexpr bool with_odeint = true;
+  static constexpr bool friction = false;
   using Sc = Scene<double, Wheels>;
   static Sc scene() { return Sc(hr16_wheels().hub_body(J_sc), hr16_wheels()); }
   static State<double> initial() {
@@ -91,11 +97,25 @@ struct RwCase {
   static MrpPd<double> controller() { return MrpPd<double>{.K = 3.5, .P = 30}; }
 };
 
+struct RwFrictionCase : RwCase {
+  static constexpr const char* name = "rw-friction";
+  static constexpr bool with_odeint = false;
+  static constexpr bool friction = true;
+  static Wheels wheels() {
+    Wheels rw = hr16_wheels();
+    for (int i = 0; i < 3; ++i) rw.set_friction(i, 1e-4);
+    return rw;
+  }
+  static Sc scene() { return Sc(wheels().hub_body(J_sc), wheels()); }
+};
+
 struct PointingCase {
   static constexpr const char* name = "pointing";
   static constexpr double period = 0.5;
   static inline const double t_end = 2 * pi / leo.rate();
   static constexpr bool momentum_exact = false;
+  static constexpr bool with_odeint = true;
+  static constexpr bool friction = false;
   using Sc = Scene<double, Wheels, GravityGradient<double>>;
   static Sc scene() {
     return Sc(hr16_wheels().hub_body(J_sc), hr16_wheels(), GravityGradient<double>(J_sc, leo.rate(), leo.normal(), leo.radial0()));
@@ -111,6 +131,8 @@ struct BdotCase {
   static constexpr double period = 0.25;
   static inline const double t_end = 10 * 2 * pi / leo.rate();
   static constexpr bool momentum_exact = false;
+  static constexpr bool with_odeint = true;
+  static constexpr bool friction = false;
   using Sc = Scene<double, Magnetorquer<double>>;
   static Sc scene() {
     return Sc(RigidBody<double>(V(0.033, 0.034, 0.007), allow_unphysical_inertia),
@@ -129,6 +151,8 @@ struct SpinnerCase {
   static constexpr const char* name = "spinner";
   static constexpr double period = 0.05, t_end = 300;
   static constexpr bool momentum_exact = true;
+  static constexpr bool with_odeint = true;
+  static constexpr bool friction = false;
   using Sc = Scene<double, Wheels>;
   static Wheels wheels() {
     Wheels rw;
@@ -227,14 +251,17 @@ Outcome dopri5_run(double tol, bool watch, double first = 1e-3) {
   return run<Case>(Stepper<RK4, typename Case::Sc>(RK4{}, Case::scene()), OdeintDopri5{tol, first}, watch);
 }
 
-/// The case's reference (computed on first use) and its distance to an independent run.
+/// The case's reference (computed on first use) and its distance to an independent run. With
+/// friction the two swap: the friction flow is split around a splitting step (Strang, order 2
+/// [W17]) but between the sub-steps of a composition (order 6).
 template <class Case>
 const std::pair<State<double>, double>& reference() {
   static const std::pair<State<double>, double> r = [] {
     const bool long_case = Case::t_end / Case::period > 1e5;
-    const State<double> ref = splitting_run<Case>(SplittingMethod::kahan_li_9, long_case ? 16 : 64, false).s;
-    const double check = (simo_run<Case>(6, long_case ? 8 : 32, false).s.rotation.matrix() - ref.rotation.matrix()).norm();
-    return std::pair{ref, check};
+    State<double> ref = splitting_run<Case>(SplittingMethod::kahan_li_9, long_case ? 16 : 64, false).s;
+    State<double> other = simo_run<Case>(6, long_case ? 8 : 32, false).s;
+    if constexpr (Case::friction) std::swap(ref, other);
+    return std::pair{ref, (other.rotation.matrix() - ref.rotation.matrix()).norm()};
   }();
   return r;
 }
@@ -292,6 +319,7 @@ void register_case() {
     add("splitting-kahan-li-9", std::string("angle:") + theta,
         [th](bool w) { return splitting_run<Case>(SplittingMethod::kahan_li_9, 1, w, th); });
   }
+  if constexpr (!Case::with_odeint) return;
   for (int m : mrk) add("odeint-rk4", "m:" + std::to_string(m), [m](bool w) { return rk4_run<Case>(m, w); });
   // dopri5's tolerances in decades, and in half decades (3e-k) where the cases cross their bounds;
   // each with the first step guessed at T/1000 (a cautious guess: a ramp of ~5 steps, each
@@ -310,6 +338,7 @@ void register_case() {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   register_case<RwCase>();
+  register_case<RwFrictionCase>();
   register_case<PointingCase>();
   register_case<SpinnerCase>();
   register_case<BdotCase>();

@@ -15,13 +15,16 @@ import statistics
 import sys
 from collections import defaultdict
 
-BOUNDS = {"rw": 1e-9, "pointing": 1e-8, "bdot": 1e-8, "spinner": 1e-8}
+BOUNDS = {"rw": 1e-9, "rw-friction": 1e-9, "pointing": 1e-8, "bdot": 1e-8, "spinner": 1e-8}
 BASELINES = ("odeint-rk4", "odeint-dopri5")
 # The fast loops' targets: trompo's cheapest at least this many times cheaper than each baseline.
 FAST_LOOPS = {"bdot": "fast loop (a), B-dot", "spinner": "fast loop (b), spinner"}
 FAST_RATIO = 5.0
 # Total momentum where no external torque acts (the cases with wheels only).
-MOMENTUM_CASES = ("rw", "spinner")
+MOMENTUM_CASES = ("rw", "rw-friction", "spinner")
+# Viscous wheel friction [W17]: its cost, the friction case's cheapest configuration against
+# the same configuration without friction.
+FRICTION = ("rw-friction", "rw")
 
 
 def load(path):
@@ -60,6 +63,7 @@ def main(path):
             pi = f"{err_pi:.1e}" if err_pi > 0 else "— (external torque)"
             print(f"| {case} | {bound:.0e} | {m} | {param} | {t:.1f} | {err_rot:.1e} | {pi} | {ratio} |")
     print_targets(best_of)
+    print_friction_cost(runs, best_of)
 
 
 def cheapest(runs, info):
@@ -106,6 +110,21 @@ def print_targets(best):
             low, m_low = rows[0]
             print(f"| total momentum kept where no external torque acts ({case}) | max ‖Δπ‖/‖π‖ over the run: "
                   f"{low:.1e} ({m_low}) … {worst:.1e} ({m}) | to round-off |")
+
+
+def print_friction_cost(runs, best):
+    """Friction's cost: the cheapest configuration within the bound with friction, and the
+    same configuration's median time without (both from this run)."""
+    case, plain = FRICTION
+    if case not in best or not best[case]:
+        return
+    m, (t, param, _, _) = min(best[case].items(), key=lambda kv: kv[1][0])
+    times = runs.get((plain, m, param))
+    if not times:
+        return
+    t0 = statistics.median(times)
+    print(f"| viscous wheel friction [W17] on {plain}: its cost | {m} {param}: {t:.1f} ms with friction, "
+          f"{t0:.1f} ms without ({t / t0:.2f}×) | — |")
 
 
 if __name__ == "__main__":

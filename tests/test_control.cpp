@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "support/trompo_test.hpp"
@@ -195,6 +196,66 @@ TEST_CASE("wheels: a composed step covers its interval exactly, far from t = 0",
     CHECK((near.rotation.matrix() - far.rotation.matrix()).norm() <= 1e-11);
     CHECK((near.omega - far.omega).norm() <= 1e-11);
   }
+  // The processed composition: its kernel ends each step on integrate()'s grid (it ran on a
+  // running sum of the primed h, and the two runs differed by 3.4e-8; now by 5e-15), with the
+  // output deferred (no observer) and at every step (an observer).
+  for (const bool observed : {false, true}) {
+    auto run = [&](double t0) {
+      ProcessedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw));
+      State<double> s;
+      s.time = t0;
+      s.omega = Vec3(0.6, 0.0, 60 * rpm);
+      stepper.scene().effect<Wheels>().start(s.time, s.omega);
+      int rows = 0;
+      const bool ok = observed ? integrate(stepper, s, t0 + 1.0, 1e-3, [&](const State<double>&) { ++rows; }).ok()
+                               : integrate(stepper, s, t0 + 1.0, 1e-3).ok();
+      REQUIRE(ok);
+      CHECK(rows == (observed ? 1001 : 0));  // t0 and each step
+      return s;
+    };
+    const State<double> near = run(0.0), far = run(1e5);
+    INFO("processed, observed " << observed);
+    CHECK((near.rotation.matrix() - far.rotation.matrix()).norm() <= 1e-11);
+    CHECK((near.omega - far.omega).norm() <= 1e-11);
+  }
+}
+
+// Richardson's estimate steps each attempt as m inner steps; with wheels they lie on times
+// rounded once each and span their differences ([W4]), so π stays at round-off wherever the
+// run is in time. Measured at t0 = 1e8 (ulp(t) = 1.5e-8 s), 54,018 steps under held commands:
+// 9.8e-15 (8.1e-10 when the inner steps ran on a sum of h/m and the attempt's end was set
+// after them).
+TEST_CASE("wheels: Richardson's inner steps keep pi far from t = 0", "[control][adaptive]") {
+  Wheels rw;
+  for (int i = 0; i < 3; ++i)
+    rw.add_wheel({.axis = Vec3::Unit(i), .inertia = 0.05, .speed0 = 10.0 * (i + 1), .max_torque = 0.5});
+  using Sc = Scene<double, Wheels>;
+  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw));
+  const double t0 = 1e8;
+  State<double> s;
+  s.time = t0;
+  s.omega = Vec3(0.6, 0.0, 60 * rpm);
+  stepper.scene().effect<Wheels>().start(s.time, s.omega);
+  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+  int k = 0;
+  auto ctrl = [&k](const Sample<double>&) {
+    Command<double> c;
+    c.wheel_torques = WheelVector(3);
+    c.wheel_torques << 0.3 * std::sin(k), -0.2 * std::cos(1.3 * k), 0.1;
+    ++k;
+    return c;
+  };
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-6;
+  opt.estimate = ErrorEstimate::richardson;
+  opt.substeps = 3;
+  const SampledSummary<double> sum = integrate_sampled(stepper, s, t0 + 100.0, 0.5, ctrl, AdaptiveSteps<double>{opt});
+  REQUIRE(sum.ok());
+  const double err = (stepper.scene().spatial_momentum(s) - pi0).norm() / pi0.norm();
+  const double bound = 3 * std::sqrt(static_cast<double>(sum.steps)) * std::numeric_limits<double>::epsilon();
+  INFO(sum.steps << " steps: |dpi|/|pi| = " << err << ", bound " << bound);
+  CHECK(sum.steps > 10000);
+  CHECK(err <= bound);
 }
 
 // The splitting carries wheels by a rotor flow about w(t) = −J⁻¹h_w(t) read at the split
@@ -477,6 +538,31 @@ TEST_CASE("sampled: adaptive steps between the samples", "[control]") {
 
 // An adaptive hold stopped by max_steps (its run failed with no step failure) stops the sampled
 // run and says so: found by the fuzzer, which saw ok() at t = 1e-6 of t_end = 8.1.
+// A hold whose step falls below the time resolution (t0 = 1e15: ulp(t) = 0.125 s) stops the
+// run there with SciPy's message, not "Too many steps." (which it read before).
+TEST_CASE("sampled: an adaptive hold whose step falls below the time resolution says so", "[control]") {
+  AdaptiveHoldCase run;
+  auto& stepper = run.stepper;
+  State<double> s = run.start();
+  s.time = 1e15;
+  stepper.scene().effect<Wheels>().start(s.time, s.omega);
+  auto ctrl = [](const Sample<double>&) {
+    Command<double> c;
+    c.wheel_torques = WheelVector::Constant(4, 0.2);
+    return c;
+  };
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-10;
+  const auto sum = integrate_sampled(stepper, s, 1e15 + 100.0, 10.0, ctrl, AdaptiveSteps<double>{opt});
+  INFO("t = " << s.time << ", steps " << sum.steps << ", reason " << sum.reason());
+  CHECK_FALSE(sum.ok());
+  CHECK(sum.step_too_small);
+  CHECK_FALSE(sum.too_many_steps);
+  CHECK(sum.status == StepStatus::ok);  // no step failed
+  CHECK(sum.reason() == "Required step size is less than spacing between numbers.");
+  CHECK(s.time == 1e15);
+}
+
 TEST_CASE("sampled: an adaptive hold stopped by max_steps is not ok (Too many steps., time short of t_end)", "[control]") {
   AdaptiveHoldCase run;
   auto& stepper = run.stepper;

@@ -440,6 +440,10 @@ TEST_CASE("friction: bad input and the drivers that cannot apply it are refused"
   auto none = [](const Sample<double>&) { return Command<double>{}; };
   REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, AdaptiveSteps<double>{opt}),
                       Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("FixedSteps"));
+  // The processed composition steps a kernel, not the output the flow would act on.
+  ProcessedStepper<SimoKappa, Sc> processed(SimoKappa{}, stepper.scene());
+  REQUIRE_THROWS_WITH(integrate_sampled(processed, s, 1.0, 0.1, none, FixedSteps<double>{0.1}),
+                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("ComposedStepper"));
   CHECK(s.omega == before.omega);
   CHECK(s.time == before.time);
   // FixedSteps applies it.

@@ -592,10 +592,8 @@ struct HoldAdaptive {
     total->status = s.status;
     total->failure = s.failure;
     total->time = s.time;
-    sum.steps += s.accepted;
-    sum.failures += s.failures;
-    sum.status = s.failure;
-    sum.too_many_steps = !s.ok() && s.failure == trompo::StepStatus::ok;  // as AdaptiveSteps
+    total->step_too_small = s.step_too_small;
+    sum.add_adaptive_hold(s);
     return s.ok();
   }
 };

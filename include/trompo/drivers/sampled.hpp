@@ -73,15 +73,31 @@ struct SampledSummary {
   StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
   std::string command_error;    ///< why a command was refused (empty: none)
   bool too_many_steps = false;  ///< an adaptive hold reached AdaptiveOptions::max_steps before its sample
+  bool step_too_small = false;  ///< an adaptive hold's step fell below the time resolution before its sample
   Scalar time = Scalar(0);      ///< where the run ended
   /// Whether the run reached t_end.
-  bool ok() const { return status == StepStatus::ok && command_error.empty() && !too_many_steps; }
+  bool ok() const { return status == StepStatus::ok && command_error.empty() && !too_many_steps && !step_too_small; }
   /// Why it stopped, or "ok".
   std::string reason() const {
     if (!command_error.empty()) return command_error;
     if (status == StepStatus::ok && too_many_steps) return "Too many steps.";
+    if (status == StepStatus::ok && step_too_small) return AdaptiveSummary<Scalar>::step_too_small_message;
     return status == StepStatus::ok ? std::string("ok") : std::string(to_string(status));
+  }  /// Adds an adaptive hold's counts and outcome (AdaptiveSteps; a driver of one's own that
+  /// runs integrate_adaptive over each hold, as the CLI's with events). A run stopped by
+  /// max_steps, or by a step below the time resolution, fails with no step failure
+  /// (StepStatus::ok): the summary says which, rather than ok() at a time short of t_end
+  /// (found by the fuzzer).
+  void add_adaptive_hold(const AdaptiveSummary<Scalar>& s) {
+    steps += s.accepted;
+    failures += s.failures;
+    iterations += s.iterations;
+    status = s.failure;
+    const bool failed_without_status = !s.ok() && s.failure == StepStatus::ok;
+    too_many_steps = failed_without_status && !s.step_too_small;
+    step_too_small = failed_without_status && s.step_too_small;
   }
+
 };
 
 /// Between samples: fixed steps of h by integrate() (recovery by sub-steps), landing on the
@@ -141,13 +157,7 @@ struct AdaptiveSteps {
       auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) { obs(b.state); };
       s = integrate_adaptive(stepper, traj, t_next, options, node_observer);
     }
-    sum.steps += s.accepted;
-    sum.failures += s.failures;
-    sum.iterations += s.iterations;
-    sum.status = s.failure;
-    // A run stopped by max_steps fails with no step failure (StepStatus::ok): the summary
-    // says so, rather than ok() at a time short of t_end (found by the fuzzer).
-    sum.too_many_steps = !s.ok() && s.failure == StepStatus::ok;
+    sum.add_adaptive_hold(s);
     return s.ok();
   }
 };
@@ -364,6 +374,11 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
       if constexpr (!detail::is_fixed_steps<Between>::value)
         detail::fail("sampled: the wheels have viscous friction, whose flow is split around fixed steps "
                      "(docs/theory.md [W17]): step between the samples with FixedSteps, not adaptive steps");
+      // The processed composition steps a kernel that is not the output state: a flow on the
+      // output would be lost at the next kernel step while the wheels kept its momentum.
+      if constexpr (detail::is_processed<StepperT>())
+        detail::fail("sampled: the wheels have viscous friction, whose flow the processed composition cannot "
+                     "take (it steps a kernel, not the output; docs/theory.md [W17]): use a ComposedStepper");
       rw.prepare_friction(stepper.scene().body().inertia_inverse());
     }
   }
@@ -409,8 +424,9 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
       }
     };
     bool ok;
-    if constexpr (detail::is_fixed_steps<Between>::value && scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
-      if (friction) {
+    if constexpr (detail::is_fixed_steps<Between>::value && !detail::is_processed<StepperT>() &&
+                  scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
+      if (friction) {  // (refused above for the processed composition)
         if constexpr (observed) ok = detail::friction_split_steps(stepper, state, t_next, between, inner, sum);
         else ok = detail::friction_split_steps(stepper, state, t_next, between, NoObserver{}, sum);
         if (!ok) break;

@@ -122,6 +122,7 @@ class ProcessedStepper : public detail::CompositionCore<Scheme, Scene_> {
   /// observer wants the intermediate states. On failure nothing changes.
   StepReport<Scalar> advance(TrajectoryType& traj, Scalar h) const {
     Memory& mem = traj.memory;
+    const Scalar span = h;  // the time to cover: h as asked (integrate()'s t_b − t_a)
     h = primed_step(mem, h);
     if (mem.h == h && h != Scalar(0)) {  // primed for this h (a fresh memory has h = 0)
       // The common case: the kernel alone moves. It steps in place, with a backup of what
@@ -129,7 +130,7 @@ class ProcessedStepper : public detail::CompositionCore<Scheme, Scene_> {
       // one copy per step instead of the whole memory in and out.
       const State<Scalar> kernel = mem.kernel;
       const auto kernel_memory = mem.kernel_memory;
-      const StepReport<Scalar> rep = kernel_step(mem, h);
+      const StepReport<Scalar> rep = kernel_step(mem, h, span);
       if (!rep.ok()) {
         mem.kernel = kernel;
         mem.kernel_memory = kernel_memory;
@@ -235,6 +236,7 @@ class ProcessedStepper : public detail::CompositionCore<Scheme, Scene_> {
   /// One kernel step of size h on the memory m, from the output x (which it updates if the
   /// processor must change: a new h, or a fresh memory).
   StepReport<Scalar> advance_kernel(State<Scalar>& x, Memory& m, Scalar h) const {
+    const Scalar span = h;
     h = primed_step(m, h);
     StepReport<Scalar> total = detail::check_step_size(h);
     if (!total.ok()) return total;
@@ -247,13 +249,16 @@ class ProcessedStepper : public detail::CompositionCore<Scheme, Scene_> {
       total.absorb(pre_process(x, m, h));
       if (!total.ok()) return total;
     }
-    total.absorb(kernel_step(m, h));
+    total.absorb(kernel_step(m, h, span));
     return total;
   }
 
-  /// K_h = Φ_{a_13 h} ∘ … ∘ Φ_{a_1 h} on m.kernel, with the kernel's memories [P5].
-  StepReport<Scalar> kernel_step(Memory& m, Scalar h) const {
-    const Scalar t_end = m.kernel.time + h;
+  /// K_h = Φ_{a_13 h} ∘ … ∘ Φ_{a_1 h} on m.kernel, with the kernel's memories [P5], ending at
+  /// the kernel's time + `span`: the step as asked, which the primed h may differ from by the
+  /// grid's rounding (primed_step). The kernel's clock is then integrate()'s grid itself, not
+  /// a running sum of h, and with wheels its sub-steps cover the span exactly (theory [W4]).
+  StepReport<Scalar> kernel_step(Memory& m, Scalar h, Scalar span) const {
+    const Scalar t_end = m.kernel.time + span;
     return sequence(m.kernel, coefficients_.kernel, Order::as_listed, h, t_end,
                     [&](std::size_t k) -> BaseMemory& { return m.kernel_memory[k]; });
   }

@@ -83,7 +83,8 @@ struct SampledSummary {
     if (status == StepStatus::ok && too_many_steps) return "Too many steps.";
     if (status == StepStatus::ok && step_too_small) return AdaptiveSummary<Scalar>::step_too_small_message;
     return status == StepStatus::ok ? std::string("ok") : std::string(to_string(status));
-  }  /// Adds an adaptive hold's counts and outcome (AdaptiveSteps; a driver of one's own that
+  }
+  /// Adds an adaptive hold's counts and outcome (AdaptiveSteps; a driver of one's own that
   /// runs integrate_adaptive over each hold, as the CLI's with events). A run stopped by
   /// max_steps, or by a step below the time resolution, fails with no step failure
   /// (StepStatus::ok): the summary says which, rather than ok() at a time short of t_end
@@ -97,7 +98,6 @@ struct SampledSummary {
     too_many_steps = failed_without_status && !s.step_too_small;
     step_too_small = failed_without_status && s.step_too_small;
   }
-
 };
 
 /// Between samples: fixed steps of h by integrate() (recovery by sub-steps), landing on the

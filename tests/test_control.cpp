@@ -169,6 +169,29 @@ TEST_CASE("wheels: RK4 and compositions carry them, RK4 with a momentum error fa
   CHECK((s4f.rotation.matrix() - r2.rotation.matrix()).norm() <= 1e-6);
 }
 
+namespace {
+/// A 60 rpm spacecraft, J = diag(120, 100, 150), with three wheels on its axes: the scene, and
+/// its state at t0 with the stepper's wheels started there (the clock tests below).
+struct FastSpinner {
+  using Sc = Scene<double, Wheels>;
+  Wheels rw = [] {
+    Wheels w;
+    for (int i = 0; i < 3; ++i)
+      w.add_wheel({.axis = Vec3::Unit(i), .inertia = 0.05, .speed0 = 10.0 * (i + 1), .max_torque = 0.5});
+    return w;
+  }();
+  Sc scene() const { return Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw); }
+  template <class StepperT>
+  static State<double> start(StepperT& stepper, double t0) {
+    State<double> s;
+    s.time = t0;
+    s.omega = Vec3(0.6, 0.0, 60 * rpm);
+    stepper.scene().template effect<Wheels>().start(s.time, s.omega);
+    return s;
+  }
+};
+}  // namespace
+
 // A composed step with wheels covers its interval exactly, wherever it lies in time: with no
 // motor command the wheels' momenta are constant and the run does not depend on its start
 // time t0, so the same run from t0 = 0 and from t0 = 1e5 (where ulp(t) = 1.5e-11 s) must
@@ -177,17 +200,12 @@ TEST_CASE("wheels: RK4 and compositions carry them, RK4 with a momentum error fa
 // clock by ~ulp(t) a step, and the two runs differed by 6e-8 (order 4) and 2e-7 (order 6)
 // after 1000 steps (measured); now by 3e-14.
 TEST_CASE("wheels: a composed step covers its interval exactly, far from t = 0", "[control]") {
-  Wheels rw;
-  for (int i = 0; i < 3; ++i)
-    rw.add_wheel({.axis = Vec3::Unit(i), .inertia = 0.05, .speed0 = 10.0 * (i + 1), .max_torque = 0.5});
-  using Sc = Scene<double, Wheels>;
+  const FastSpinner spinner;
+  using Sc = FastSpinner::Sc;
   for (const int order : {4, 6}) {
     auto run = [&](double t0) {
-      ComposedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw), order);
-      State<double> s;
-      s.time = t0;
-      s.omega = Vec3(0.6, 0.0, 60 * rpm);
-      stepper.scene().effect<Wheels>().start(s.time, s.omega);
+      ComposedStepper<SimoKappa, Sc> stepper(SimoKappa{}, spinner.scene(), order);
+      State<double> s = FastSpinner::start(stepper, t0);
       REQUIRE(integrate(stepper, s, t0 + 1.0, 1e-3).ok());
       return s;
     };
@@ -201,11 +219,8 @@ TEST_CASE("wheels: a composed step covers its interval exactly, far from t = 0",
   // output deferred (no observer) and at every step (an observer).
   for (const bool observed : {false, true}) {
     auto run = [&](double t0) {
-      ProcessedStepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw));
-      State<double> s;
-      s.time = t0;
-      s.omega = Vec3(0.6, 0.0, 60 * rpm);
-      stepper.scene().effect<Wheels>().start(s.time, s.omega);
+      ProcessedStepper<SimoKappa, Sc> stepper(SimoKappa{}, spinner.scene());
+      State<double> s = FastSpinner::start(stepper, t0);
       int rows = 0;
       const bool ok = observed ? integrate(stepper, s, t0 + 1.0, 1e-3, [&](const State<double>&) { ++rows; }).ok()
                                : integrate(stepper, s, t0 + 1.0, 1e-3).ok();
@@ -226,16 +241,9 @@ TEST_CASE("wheels: a composed step covers its interval exactly, far from t = 0",
 // 9.8e-15 (8.1e-10 when the inner steps ran on a sum of h/m and the attempt's end was set
 // after them).
 TEST_CASE("wheels: Richardson's inner steps keep pi far from t = 0", "[control][adaptive]") {
-  Wheels rw;
-  for (int i = 0; i < 3; ++i)
-    rw.add_wheel({.axis = Vec3::Unit(i), .inertia = 0.05, .speed0 = 10.0 * (i + 1), .max_torque = 0.5});
-  using Sc = Scene<double, Wheels>;
-  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(rw.hub_body(Vec3(120, 100, 150).asDiagonal()), rw));
+  Stepper<SimoKappa, FastSpinner::Sc> stepper(SimoKappa{}, FastSpinner{}.scene());
   const double t0 = 1e8;
-  State<double> s;
-  s.time = t0;
-  s.omega = Vec3(0.6, 0.0, 60 * rpm);
-  stepper.scene().effect<Wheels>().start(s.time, s.omega);
+  State<double> s = FastSpinner::start(stepper, t0);
   const Vec3 pi0 = stepper.scene().spatial_momentum(s);
   int k = 0;
   auto ctrl = [&k](const Sample<double>&) {

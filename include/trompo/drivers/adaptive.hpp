@@ -306,11 +306,8 @@ struct AdaptiveLoop {
     else
       return false;
   }();
-  /// Whether the scene has reaction wheels, whose h_w(t) is read at the steps' times.
-  static constexpr bool has_wheels = [] {
-    if constexpr (requires { SceneOf::has_wheels; }) return SceneOf::has_wheels;
-    else return false;
-  }();
+  /// Whether the scene has reaction wheels (stepper_has_wheels_v).
+  static constexpr bool has_wheels = stepper_has_wheels_v<Stepper>;
   State<Scalar> start_state{};  ///< the state before an in-place attempt
   Traj coarse{};                ///< Richardson's Ψ_{mh}, kept across attempts (assign copies the used memory)
   /// Richardson's attempt: what its first m − 1 steps leave, for their dense nodes and

@@ -100,6 +100,14 @@ struct IntegrationSummary {
 
 namespace detail {
 
+/// Whether a stepper's scene has reaction wheels, whose momentum h_w(t) the steps read at
+/// their times: the drivers then step the differences of the stored times (theory [W4]).
+template <class Stepper>
+inline constexpr bool stepper_has_wheels_v = [] {
+  if constexpr (requires { Stepper::Scene::has_wheels; }) return Stepper::Scene::has_wheels;
+  else return false;
+}();
+
 /// Whether integrate() may defer the output: a stepper with advance/output (a processed
 /// composition, processed_composition.hpp) on its trajectory, and no observer.
 template <class Stepper, class StateT, class Observer>
@@ -128,12 +136,8 @@ struct Integrator {
     else return state.time;
   }
 
-  /// Whether the stepper's scene has reaction wheels, whose momentum h_w(t) the state's
-  /// invariants read at the state's time.
-  static constexpr bool wheels = [] {
-    if constexpr (requires { Stepper::Scene::has_wheels; }) return Stepper::Scene::has_wheels;
-    else return false;
-  }();
+  /// Whether the stepper's scene has reaction wheels (stepper_has_wheels_v).
+  static constexpr bool wheels = stepper_has_wheels_v<Stepper>;
 
   /// One step of size dt that should end at the (sub-)grid time t_b.
   bool attempt(Scalar dt, Scalar t_b) {

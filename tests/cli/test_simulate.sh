@@ -265,6 +265,9 @@ check "free wheels (a gyrostat, simo-kappa): H (wheels' energy included) and pi 
 "$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --scheme splitting --every 10 >"$tmp/rws.csv" 2>&1; rc=$?
 check "wheels + mrp-pd, the splitting (rotor flow [W14]): exit 0, pi exact, the same attitude as simo-kappa to 1e-3" \
   '[ $rc -eq 0 ] && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rws.csv" && paste -d, "$tmp/rw.csv" "$tmp/rws.csv" | awk -F, "NR>1{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-3) bad=1}} END{exit bad}"'
+"$sim" $ctl --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 --control-period 0.5 --scheme splitting --composition saba2c --every 10 >"$tmp/rwsa.csv" 2>&1; rc=$?
+check "wheels + mrp-pd, --composition saba2c (the hub's exact flow and the rotor flow [W18]): exit 0, pi exact, the same attitude as simo-kappa to 1e-3" \
+  '[ $rc -eq 0 ] && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rwsa.csv" && paste -d, "$tmp/rw.csv" "$tmp/rwsa.csv" | awk -F, "NR>1{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-3) bad=1}} END{exit bad}" && ! cmp -s "$tmp/rws.csv" "$tmp/rwsa.csv"'
 # Viscous wheel friction [W17]: the optional eighth column; split around the fixed steps, it
 # keeps pi and only takes energy out (mrp-pd:0,0 commands nothing: H never rises, and falls).
 printf '%s,friction\n1,0,0,0.05,10,0.2,600,0.002\n0,1,0,0.05,-5,0.2,600,0.001\n0,0,1,0.05,0,0.2,inf,0\n' "$wh" >"$tmp/rw3c.csv"

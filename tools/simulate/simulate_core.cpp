@@ -763,7 +763,8 @@ int run_control(const Config& c, Out& out) {
                           control_scheme_names() + ")");
     } else if constexpr (std::is_same_v<S, Splitting>) {
       // The splitting carries the wheels by its rotor flow [W14]; --composition / --order
-      // pick the method as for any scene (Chin's and the near-integrable ones are refused).
+      // pick the method as for any scene (Chin's are refused; SABA/SBAB run on the hub's
+      // exact flow with the rotor and the held torques as B [W18]).
       const Splitting split(splitting_method(c, scene));
       split.check(scene);
       code = run_control_with(Stepper<Splitting, ControlScene>(split, scene), c, s0, out);

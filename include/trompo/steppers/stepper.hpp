@@ -111,8 +111,12 @@ class Stepper {
 
   /// Whether one step of +h then −h returns to the start (scheme.hpp: trompo::symmetric).
   bool symmetric() const { return trompo::symmetric(scheme_); }
-  /// The scheme's order of accuracy with its parameters.
-  int order() const { return order_of_accuracy(scheme_); }
+  /// The scheme's order of accuracy with its parameters, on this scene where the scheme
+  /// says it differs (`order_on(scene)`: the near-integrable splittings with wheels, [W18]).
+  int order() const {
+    if constexpr (requires { scheme_.order_on(scene_); }) return scheme_.order_on(scene_);
+    else return order_of_accuracy(scheme_);
+  }
   /// What the scheme keeps exactly on this scene.
   Keeps keeps() const { return trompo::keeps<Scene>(scheme_); }
 

@@ -108,7 +108,8 @@ constexpr bool is_chin(SplittingMethod m) {
 }
 
 /// The corrected near-integrable compositions SABA_nC, SBAB_nC of Laskar & Robutel [F8]:
-/// they need the exact free flow (no rotor) and a force gradient (potentials only).
+/// they need the exact free flow (no rotor) and a force gradient (potentials only); with
+/// reaction wheels they run on the hub's exact flow without the corrector [W18].
 constexpr bool is_near_integrable(SplittingMethod m) {
   return m == SplittingMethod::saba2c || m == SplittingMethod::saba3c || m == SplittingMethod::saba4c ||
          m == SplittingMethod::sbab2c || m == SplittingMethod::sbab3c;
@@ -238,27 +239,51 @@ struct SplittingScheme {
     return t;
   }
 
+  /// The order on a scene: order_of(method), except the near-integrable methods on a scene
+  /// with wheels, whose rotor term has no corrector: O(εh^{2n} + ε²h²) is order 2 [W18].
+  /// (Stepper::order() takes this one: the adaptive driver's error estimate needs it.)
+  template <class Scene>
+  constexpr int order_on(const Scene&) const {
+    if (Scene::has_wheels && is_near_integrable(method)) return 2;
+    return order_of(method);
+  }
+
+  /// Whether the method can step this scene (check() throws the reason where it cannot):
+  /// Chin's methods need a conservative scene without wheels; the near-integrable ones a
+  /// conservative scene, or any scene with wheels [W18].
+  template <class Scene>
+  constexpr bool offered_on() const {
+    using Effects = detail::splitting_effects_of<Scene>;
+    if (is_chin(method)) return Effects::conservative && !Scene::has_wheels;
+    if (is_near_integrable(method)) return Scene::has_wheels || Effects::conservative;
+    return true;
+  }
+
   /// Throws invalid_input if the method is not offered on this scene (a Chin method with an
   /// applied torque or damping, whose force-gradient term [S7] does not apply).
   template <class Scene>
   void check(const Scene& scene) const {
+    using Effects = detail::splitting_effects_of<Scene>;
     if (is_near_integrable(method)) {
-      if (!detail::splitting_effects_of<Scene>::conservative)
-        detail::fail("splitting: method ", to_string(method),
-                     " needs a scene whose effects are potentials (its corrector is a force gradient [F8]); this "
-                     "scene has applied torques or damping: use strang, suzuki-5 or kahan-li-9");
-      if constexpr (Scene::has_rotor)
-        if (scene.rotor_momentum() != Eigen::Matrix<typename Scene::Scalar, 3, 1>::Zero())
+      if constexpr (!Scene::has_wheels) {
+        if (!Effects::conservative)
           detail::fail("splitting: method ", to_string(method),
-                       " needs the exact free flow [F1]-[F7], which a rotor's gyrostat term does not have: use "
-                       "chin-4a or the Strang compositions");
+                       " needs a scene whose effects are potentials (its corrector is a force gradient [F8]); this "
+                       "scene has applied torques or damping: use strang, suzuki-5 or kahan-li-9");
+        if constexpr (Scene::has_rotor)
+          if (scene.rotor_momentum() != Eigen::Matrix<typename Scene::Scalar, 3, 1>::Zero())
+            detail::fail("splitting: method ", to_string(method),
+                         " needs the exact free flow [F1]-[F7], which a rotor's gyrostat term does not have: use "
+                         "chin-4a or the Strang compositions");
+      }
     }
     if constexpr (Scene::has_wheels)
-      if (is_chin(method) || is_near_integrable(method))
+      if (is_chin(method))
         detail::fail("splitting: method ", to_string(method),
                      " needs an exact free flow or a conservative load, which a scene with wheels has not (their "
-                     "held torques change h_w): use strang, suzuki-5 or kahan-li-9");
-    if (is_chin(method) && !detail::splitting_effects_of<Scene>::conservative)
+                     "held torques change h_w): use strang, suzuki-5, kahan-li-9 or the near-integrable saba/sbab "
+                     "methods [W18]");
+    if (is_chin(method) && !Effects::conservative)
       detail::fail("splitting: method ", to_string(method),
                    " needs a scene whose effects are potentials and rotors (its modified kick is a force "
                    "gradient [S7]); this scene has applied torques or damping: use strang, suzuki-5 or kahan-li-9");
@@ -329,11 +354,11 @@ struct SplittingScheme {
     using Scalar = typename Scene::Scalar;
     using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
     StepReport<Scalar> rep;
-    if ((is_chin(method) || is_near_integrable(method)) && (!Effects::conservative || Scene::has_wheels)) {
+    if (!offered_on<Scene>()) {
       rep.status = StepStatus::invalid_step;  // check() says why
       return rep;
     }
-    if (is_near_integrable(method) && !f.free_flow_exact() && !f.exact_free) {
+    if (is_near_integrable(method) && !Scene::has_wheels && !f.free_flow_exact() && !f.exact_free) {
       rep.status = StepStatus::invalid_step;  // a rotor: check() says why
       return rep;
     }
@@ -393,7 +418,10 @@ struct SplittingScheme {
       case SplittingMethod::saba4c:
       case SplittingMethod::sbab2c:
       case SplittingMethod::sbab3c:
-        if constexpr (Effects::conservative) near_integrable<Scene>(scene, f, x, h, detail::NearIntegrable::of(method));
+        if constexpr (Scene::has_wheels)
+          near_integrable_wheels<Scene>(scene, f, x, h, detail::NearIntegrable::of(method));
+        else if constexpr (Effects::conservative)
+          near_integrable<Scene>(scene, f, x, h, detail::NearIntegrable::of(method));
         break;
     }
     if constexpr (EnergyProjection) detail::project_energy(scene, f, x, H0);
@@ -548,41 +576,63 @@ struct SplittingScheme {
                               detail::SplitState<Scalar>& x, Scalar h, const detail::NearIntegrable& c) {
     if constexpr (!Scene::has_potential) {  // torque-free: the exact flow itself
       free_flow<Scene>(scene, f, x, h);
-      return;
     } else {
-      near_integrable_loaded<Scene>(scene, f, x, h, c);
+      const Scalar h3g = Scalar(c.g) * h * h * h;
+      const Scalar d0 = Scalar(c.d[0]) * h;
+      near_integrable_sequence(
+          c, h, [&](Scalar tau) { free_flow<Scene>(scene, f, x, tau); },
+          [&](Scalar tau) { detail::flow_kick(scene, f, x, tau); },
+          [&] {
+            if (c.kick_first) detail::flow_gradient_kick(scene, f, x, d0, h3g / d0, true);
+            else detail::flow_gradient_kick(scene, f, x, Scalar(0), h3g, false);
+          });
     }
   }
 
+  /// [W18] The near-integrable composition with wheels: A the hub's exact free flow ([F1]–[F7],
+  /// or S on a symmetric hub; the split clock advances in it), B the wheels' rotor flow at the
+  /// split clock with the loads' flows around it, X_1(τ/2) … X_m(τ) … X_1(τ/2) (outer_flows:
+  /// damping, kicks, then the rotor innermost); no corrector (SBAB's end pieces are its first
+  /// and last B).
   template <class Scene, class Scalar>
-  static void near_integrable_loaded(const Scene& scene, const detail::SplittingFrame<Scalar>& f,
+  static void near_integrable_wheels(const Scene& scene, const detail::SplittingFrame<Scalar>& f,
                                      detail::SplitState<Scalar>& x, Scalar h, const detail::NearIntegrable& c) {
-    const Scalar h3g = Scalar(c.g) * h * h * h;
-    auto drift = [&](Scalar tau) { free_flow<Scene>(scene, f, x, tau); };
-    auto kick = [&](int i) { detail::flow_kick(scene, f, x, Scalar(c.d[i]) * h); };
-    if (!c.kick_first) {
-      // SABA_n: n_free = n + 1 flows, n kicks; fractions c[0..], d[0..] mirrored about the middle
-      const int nf = c.n_free, nk = nf - 1;
-      detail::flow_gradient_kick(scene, f, x, Scalar(0), h3g, false);
-      for (int i = 0; i < nf; ++i) {
-        const int ci = i < (nf + 1) / 2 ? i : nf - 1 - i;
-        drift(Scalar(c.c[ci]) * h);
-        if (i < nk) kick(i < (nk + 1) / 2 ? i : nk - 1 - i);
-      }
-      detail::flow_gradient_kick(scene, f, x, Scalar(0), h3g, false);
-    } else {
-      // SBAB_n: n flows, n + 1 kicks; the fractions c start at index 1 (c[0] = 0)
-      const int nf = c.n_free, nk = nf + 1;
-      const Scalar d0 = Scalar(c.d[0]) * h;
-      detail::flow_gradient_kick(scene, f, x, d0, h3g / d0, true);
-      for (int i = 0; i < nf; ++i) {
-        const int ci = 1 + (i < (nf + 1) / 2 ? i : nf - 1 - i);
-        drift(Scalar(c.c[ci]) * h);
-        const int ki = i + 1;
-        if (ki < nk - 1) kick(ki < (nk + 1) / 2 ? ki : nk - 1 - ki);
-      }
-      detail::flow_gradient_kick(scene, f, x, d0, h3g / d0, true);
+    FlowId ids[4];
+    const int m = outer_flows<Scene>(f, ids, true);  // with wheels: no A flow, the rotor last
+    auto perturbation = [&](Scalar tau) {
+      for (int k = 0; k + 1 < m; ++k) apply(ids[k], scene, f, x, tau / 2);
+      apply(ids[m - 1], scene, f, x, tau);
+      for (int k = m - 2; k >= 0; --k) apply(ids[k], scene, f, x, tau / 2);
+    };
+    const Scalar d0 = Scalar(c.d[0]) * h;
+    near_integrable_sequence(
+        c, h,
+        [&](Scalar tau) {
+          if (f.exact_free) detail::flow_exact_free(f, x, tau);
+          else detail::flow_symmetric(f, x, tau);
+        },
+        perturbation,
+        [&] {
+          if (c.kick_first) perturbation(d0);
+        });
+  }
+
+  /// The sequence of a near-integrable composition [F8]: SABA_n is E A(c₁h) B(d₁h) A(c₂h) …
+  /// B(d₁h) A(c₁h) E (n + 1 drifts A, n kicks B), SBAB_n is E A(c₂h) B(d₂h) … A(c₂h) E (n drifts,
+  /// the n − 1 inner kicks), with E the end piece: SABA's corrector, SBAB's end kick (with its
+  /// corrector). The fractions are palindromic: c[], d[] hold the first half.
+  template <class Scalar, class Drift, class Kick, class End>
+  static void near_integrable_sequence(const detail::NearIntegrable& c, Scalar h, Drift drift, Kick kick, End end) {
+    const int nf = c.n_free;
+    const int nk = c.kick_first ? nf + 1 : nf - 1;  // kicks in the step, the end ones included
+    const int c0 = c.kick_first ? 1 : 0;            // SBAB's drift fractions start at c[1]
+    end();
+    for (int i = 0; i < nf; ++i) {
+      drift(Scalar(c.c[c0 + (i < (nf + 1) / 2 ? i : nf - 1 - i)]) * h);
+      const int k = c.kick_first ? i + 1 : i;  // the kick after this drift
+      if (k < (c.kick_first ? nk - 1 : nk)) kick(Scalar(c.d[k < (nk + 1) / 2 ? k : nk - 1 - k]) * h);
     }
+    end();
   }
 };
 

@@ -186,7 +186,7 @@ void CommandLine::declare(Config& c) {
         "(12 steps each), every row post-processed; with --scheme splitting (docs/splitting.md):\n"
         "strang|chin-4a|chin-triple-jump|suzuki-5|kahan-li-9|saba2c|saba3c|saba4c|sbab2c|sbab3c\n"
         "(suzuki-5, kahan-li-9: compositions of Strang; sabaNc, sbabNc: Laskar-Robutel with corrector,\n"
-        "small torques); default by --order: chin-4a / chin-triple-jump where they apply, else\n"
+        "small torques; with --wheels without it, order 2 [W18]); default by --order: chin-4a / chin-triple-jump where they apply, else\n"
         "suzuki-5 / kahan-li-9",
         [&c](const std::string& v) {
           c.composition_name = v;
@@ -488,7 +488,7 @@ void check_flags(Config& c, const Flags& flags) {
     if (!c.ensemble.empty())
       for (const char* f : {"--rotation", "--omega", "--every"})
         if (flags.count(f)) throw invalid_input(std::string("--ensemble: the initial states come from the file; drop ") + f);
-    check_control(c, flags);   // control in the loop: refuses the splitting (no wheels)
+    check_control(c, flags);   // control in the loop: its flags (the splitting carries wheels, [W14])
     check_adaptive(c, flags);  // adaptive steps (before this return, the splitting skipped them)
     return;
   }

@@ -67,7 +67,8 @@ template <class Scene>
 std::string method_text(const Config& c, const Scene& scene) {
   if (c.scheme == "splitting") {
     const trompo::SplittingMethod m = splitting_method(c, scene);
-    return "splitting " + std::string(trompo::to_string(m)) + " (order " + std::to_string(trompo::order_of(m)) + ")";
+    // the order on this scene: SABA/SBAB with wheels are of order 2 [W18]
+    return "splitting " + std::string(trompo::to_string(m)) + " (order " + std::to_string(trompo::Splitting(m).order_on(scene)) + ")";
   }
   if (c.order == 2) return c.scheme + " (order 2)";
   return c.scheme + " " + trompo::to_string(c.composition ? *c.composition : trompo::composition_of_order(c.order)) +

@@ -650,7 +650,7 @@ class CommandError(ControlError, ValueError):
     the message names the command and t_k. Also a ValueError."""
 
 
-def _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle):
+def _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle, composition=None):
     """The engine's flags of a control run (or of each member of a closed-loop ensemble), the
     MrpPd target (or None) and a Python controller (or None), after the checks of the
     arguments they share (a ValueError naming the keyword)."""
@@ -674,6 +674,10 @@ def _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, orde
         flags["--max-step-angle"] = _number("max_step_angle", max_step_angle)
     if order != 2:
         flags["--order"] = str(int(order))
+    if composition is not None:
+        if not isinstance(composition, str):
+            raise ValueError(f"composition: expected a method's name (e.g. 'saba2c', 'kahan-li-9'), got {composition!r}")
+        flags["--composition"] = composition
     if spacecraft.orbit is not None:
         flags["--orbit-radius"] = repr(spacecraft.orbit.radius)
         flags["--orbit-inclination"] = repr(math.degrees(spacecraft.orbit.inclination))
@@ -710,7 +714,7 @@ def _wheel_arrays(spacecraft):
 
 
 def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6, t_eval=None, events=None,
-            dense_output=False, scheme="simo-kappa", order=2, every=1, max_step_angle=None):
+            dense_output=False, scheme="simo-kappa", order=2, composition=None, every=1, max_step_angle=None):
     """Integrates ``spacecraft`` from ``state`` to ``t_end`` with ``controller`` (MrpPd, BDot,
     or a Python callable ``f(t, R, W, wheel_speeds, memory)`` returning a dict of commands)
     sampled every ``period``, its commands held in between: fixed steps of ``dt``, or with
@@ -720,6 +724,9 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
     run again with rows at t, a Python controller starting from a fresh memory).
     ``max_step_angle`` (rad, fixed steps): each hold split into the fewest equal steps, none
     longer than ``dt``, that turn the body by at most this angle at the sample's rate.
+    ``composition``: a named composition or splitting method, as the CLI's ``--composition``
+    (e.g. ``scheme="splitting", composition="saba2c"``, the near-integrable method of a fast
+    spinner with wheels, theory [W18]); ``order`` then must agree or stay at its default.
 
     Returns a ControlResult; raises ValueError, CommandError, ControlError or StepFailed,
     carrying the rows so far. docs/python.md, "Control in the loop from Python".
@@ -733,7 +740,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         raise ValueError(f"{what}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
-    flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle)
+    flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle,
+                                       composition)
     memory = {} if fn is not None else None
     if t_eval is None:
         flags["--every"] = str(int(every))
@@ -784,7 +792,8 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
 
 
 def control_ensemble(spacecraft, rotation, omega, t_end, *, period, controller, dt=None, rtol=None, atol=1e-6,
-                     scheme="simo-kappa", order=2, max_step_angle=None, inertia=None, threads=0, progress=False):
+                     scheme="simo-kappa", order=2, composition=None, max_step_angle=None, inertia=None, threads=0,
+                     progress=False):
     """N closed loops at once, across ``threads`` cores (0: all): member i is ``control`` of
     ``spacecraft`` from ``rotation[i]`` ((N,3) rotation vectors or (N,3,3) matrices) and
     ``omega[i]`` (N,3), each with its own wheels (started at its own rates) and its own
@@ -798,7 +807,8 @@ def control_ensemble(spacecraft, rotation, omega, t_end, *, period, controller, 
     if not isinstance(controller, (MrpPd, BDot)):
         raise ValueError(f"controller: a closed-loop ensemble takes trompo.MrpPd or trompo.BDot (a Python callable "
                          f"would serialise the members on the interpreter's lock), got {controller!r}")
-    flags, target, _ = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle)
+    flags, target, _ = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle,
+                                      composition)
     if rtol is not None:
         flags["--rtol"] = _number("rtol", rtol)
         flags["--atol"] = _number("atol", atol)

@@ -334,6 +334,7 @@ for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--controller bdot:1 --control-period 1|--controller bdot: needs the magnetic field" \
            "--wheels $tmp/rw3.csv --scheme geradin-bauchau|--scheme geradin-bauchau: cannot carry reaction wheels" \
            "--wheels $tmp/rw3.csv --scheme splitting --composition chin-4a|needs an exact free flow or a conservative load" \
+           "--wheels $tmp/rw3.csv --scheme splitting --composition saba2c --order 4|--order: 4 contradicts --composition saba2c (order 2)" \
            "--wheels $tmp/rw3.csv --scheme exact|--scheme exact: cannot carry reaction wheels" \
            "$pd --scheme lie-gen-alpha|--scheme lie-gen-alpha: cannot carry reaction wheels" \
            "--controller mrp-pd:1 --control-period 1|--controller mrp-pd: expected mrp-pd:K,P" \

@@ -62,11 +62,14 @@ using Wheels = ReactionWheels<double>;
 constexpr double pi = 3.14159265358979323846;
 constexpr double rpm = 2 * pi / 60;
 
+/// The spinner's wheels' axial inertia (kg m²), which its damper reads too.
+constexpr double spinner_Js = 0.05;
+
 /// The spinner's nutation damper on the two transverse wheels: u_i = P Ω_i − K h_i, the body
 /// torque −u_i opposing the transverse rate, and −K h_i bringing the wheel back to rest as the
 /// nutation dies (h_i = J_s(Ω_i + Ω_w,i), the wheel's momentum on its body axis i).
 struct NutationDamper {
-  double P = 1, K = 0.2, J_s = 0.05;
+  double P = 1, K = 0.2, J_s = spinner_Js;
   Command<double> operator()(const Sample<double>& s) const {
     Command<double> c;
     c.wheel_torques = Wheels::WheelVector::Zero(s.wheel_speeds.size());
@@ -166,7 +169,7 @@ struct SpinnerCase {
   using Sc = Scene<double, Wheels>;
   static Wheels wheels() {
     Wheels rw;
-    for (int i = 0; i < 3; ++i) rw.add_wheel({.axis = V::Unit(i), .inertia = 0.05, .speed0 = 0, .max_torque = 0.5});
+    for (int i = 0; i < 3; ++i) rw.add_wheel({.axis = V::Unit(i), .inertia = spinner_Js, .speed0 = 0, .max_torque = 0.5});
     return rw;
   }
   static Sc scene() { return Sc(wheels().hub_body(V(120, 100, 150).asDiagonal()), wheels()); }

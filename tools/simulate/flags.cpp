@@ -478,10 +478,9 @@ void check_flags(Config& c, const Flags& flags) {
                               ": not a splitting method (strang, chin-4a, chin-triple-jump, suzuki-5, kahan-li-9, saba2c, "
                               "saba3c, saba4c, sbab2c, sbab3c)");
       int k = 6;
-      // (a control run's scene carries wheels, where SABA/SBAB run without their corrector: order 2, [W18])
+      // (a control run's scene carries wheels: order_with_wheels, [W18])
       for (const auto m : trompo::all_splitting_methods)
-        if (*c.composition_name == trompo::to_string(m))
-          k = c.control.on() && trompo::is_near_integrable(m) ? 2 : trompo::order_of(m);
+        if (*c.composition_name == trompo::to_string(m)) k = c.control.on() ? trompo::order_with_wheels(m) : trompo::order_of(m);
       if (c.order_flag && *c.order_flag != k)
         throw invalid_input("--order: " + std::to_string(*c.order_flag) + " contradicts --composition " +
                             *c.composition_name + " (order " + std::to_string(k) + ")");

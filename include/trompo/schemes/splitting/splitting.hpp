@@ -115,6 +115,10 @@ constexpr bool is_near_integrable(SplittingMethod m) {
          m == SplittingMethod::sbab2c || m == SplittingMethod::sbab3c;
 }
 
+/// The order of a splitting method on a scene with reaction wheels: order_of(m), except the
+/// near-integrable methods, which run there without their corrector, O(εh^{2n} + ε²h²) [W18].
+constexpr int order_with_wheels(SplittingMethod m) { return is_near_integrable(m) ? 2 : order_of(m); }
+
 /// Every splitting method, in the order of the enum (CLI names by to_string).
 inline constexpr SplittingMethod all_splitting_methods[] = {
     SplittingMethod::strang, SplittingMethod::chin_4a, SplittingMethod::chin_triple_jump,
@@ -239,13 +243,12 @@ struct SplittingScheme {
     return t;
   }
 
-  /// The order on a scene: order_of(method), except the near-integrable methods on a scene
-  /// with wheels, whose rotor term has no corrector: O(εh^{2n} + ε²h²) is order 2 [W18].
-  /// (Stepper::order() takes this one: the adaptive driver's error estimate needs it.)
+  /// The order on a scene: order_with_wheels(method) on a scene with wheels, else
+  /// order_of(method). (Stepper::order() takes this one: the adaptive driver's error estimate
+  /// needs it.)
   template <class Scene>
   constexpr int order_on(const Scene&) const {
-    if (Scene::has_wheels && is_near_integrable(method)) return 2;
-    return order_of(method);
+    return Scene::has_wheels ? order_with_wheels(method) : order_of(method);
   }
 
   /// Whether the method can step this scene (check() throws the reason where it cannot):

@@ -6,7 +6,8 @@
 // Covered: every scheme on the free body, the heavy top, and scenes with every effect
 // (damping, body and space torques, rotor, a general potential); composed steppers;
 // failing steps; integrate() with sub-stepping recovery; a scheme with memory (a Trajectory)
-// through Stepper, ComposedStepper and integrate().
+// through Stepper, ComposedStepper and integrate(); the closed loop (wheels, friction, the
+// near-integrable compositions with wheels, adaptive holds, magnetorquers).
 #include "support/allocation_counter.hpp"  // first: it replaces operator new/delete
 
 #include <catch2/catch.hpp>
@@ -240,6 +241,13 @@ TEST_CASE("no heap allocation in the closed loop: wheels, friction, adaptive hol
     loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw)), FixedSteps<double>{0.05});
     loop(ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw), 6), FixedSteps<double>{0.1});
     loop(Stepper<Splitting, Sc>(Splitting(SplittingMethod::kahan_li_9), Sc(rw.hub_body(J), rw)), FixedSteps<double>{0.1});
+  }
+  SECTION("the near-integrable compositions with wheels [W18], asymmetric and symmetric hubs") {
+    const Mat3 J_sym = Vec3(800, 800, 600).asDiagonal();
+    for (SplittingMethod method : {SplittingMethod::saba2c, SplittingMethod::saba4c, SplittingMethod::sbab3c}) {
+      loop(Stepper<Splitting, Sc>(Splitting(method), Sc(rw.hub_body(J), rw)), FixedSteps<double>{0.05});
+      loop(Stepper<Splitting, Sc>(Splitting(method), Sc(rw.hub_body(J_sym), rw)), FixedSteps<double>{0.1});
+    }
   }
   SECTION("friction split around plain and composed steps") {
     loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw_friction.hub_body(J), rw_friction)), FixedSteps<double>{0.05});

@@ -255,6 +255,11 @@ TEST_CASE("no heap allocation in the closed loop: wheels, friction, adaptive hol
   }
   SECTION("adaptive steps between the samples") {
     loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw.hub_body(J), rw)), AdaptiveSteps<double>{{.rtol = 1e-8, .atol = 1e-8}});
+    // with friction: the adaptive driver on the split step [W17]
+    loop(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw_friction.hub_body(J), rw_friction)),
+         AdaptiveSteps<double>{{.rtol = 1e-8, .atol = 1e-8}});
+    loop(ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Sc(rw_friction.hub_body(J), rw_friction), 4),
+         AdaptiveSteps<double>{{.rtol = 1e-8, .atol = 1e-8}});
   }
   SECTION("magnetorquers and B-dot") {
     using Mag = Scene<double, Magnetorquer<double>>;

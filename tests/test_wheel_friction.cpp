@@ -323,6 +323,51 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
   CHECK(e4[0] < e2[0] / 100);
   CHECK(std::abs(q1 - 4) <= 0.3);
   CHECK(std::abs(q2 - 4) <= 0.3);
+
+  // Adaptive holds (AdaptiveSteps) on the split step: Richardson's estimate of S_Δ sees the
+  // friction, a refused attempt puts the wheels back with the state, and the error follows the
+  // tolerance. The first step of each hold is the whole hold, which the tighter tolerances
+  // refuse: the wheels' line is put back at every sample (else the friction of each refused
+  // attempt would stay in the wheels, an error of c·Δt ≈ 1e-2 whatever the tolerance).
+  auto adaptive = [&](auto make_stepper, double rtol) {
+    auto stepper = make_stepper();
+    State<double> s;
+    s.rotation = SO3d::exp(theta0);
+    s.omega = omega0;
+    stepper.scene().template effect<Wheels>().start(0.0, s.omega);
+    const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+    HoldEach ctrl{&four_commands};
+    AdaptiveOptions<double> opt;
+    opt.rtol = rtol;
+    opt.atol = rtol;
+    opt.first_step = T;
+    const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, T, ctrl, AdaptiveSteps<double>{opt});
+    REQUIRE(sum.ok());
+    CHECK(s.time == t_end);
+    CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+    const double e = (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
+                     (stepper.scene().template effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();
+    return std::pair{e, sum.steps};
+  };
+  for (const bool composed : {false, true}) {
+    std::vector<double> ea;
+    std::vector<std::int64_t> steps;
+    for (const double rtol : {1e-5, 1e-7, 1e-9}) {
+      const auto [e, n_steps] = composed
+                              ? adaptive([&] { return ComposedStepper<SimoKappa, Sc>(SimoKappa{}, Sc(hub, rw0), 4); }, rtol)
+                              : adaptive([&] { return Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(hub, rw0)); }, rtol);
+      ea.push_back(e);
+      steps.push_back(n_steps);
+      INFO((composed ? "order 4" : "order 2") << ", rtol " << rtol << ": error " << e << " in " << n_steps << " steps");
+      CHECK(e <= 60 * rtol);  // 20 holds, each a run held to the tolerance by itself
+    }
+    INFO((composed ? "order 4" : "order 2") << ": errors " << ea[0] << ", " << ea[1] << ", " << ea[2] << "; steps "
+                                           << steps[0] << ", " << steps[1] << ", " << steps[2]);
+    CHECK(ea[2] < ea[0] / 100);  // the error follows the tolerance
+    CHECK(steps[0] > 20);        // (more than one step a hold at the loosest: the estimate refused some)
+    CHECK(steps[2] > steps[1]);
+    CHECK(steps[1] > steps[0]);
+  }
 }
 
 // A symmetric scheme in a symmetric split is time-reversible: forward then backward under the
@@ -438,17 +483,36 @@ TEST_CASE("friction: bad input and the drivers that cannot apply it are refused"
   opt.rtol = 1e-8;
   REQUIRE_THROWS_WITH(integrate_adaptive(stepper, s, 1.0, opt), Catch::Contains("viscous friction"));
   auto none = [](const Sample<double>&) { return Command<double>{}; };
-  REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, AdaptiveSteps<double>{opt}),
-                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("FixedSteps"));
+  // Adaptive holds estimate the split step by Richardson's rule; the defect estimate and the
+  // reversible control read rates that do not see the friction.
+  AdaptiveOptions<double> defect = opt, reversible = opt;
+  defect.estimate = ErrorEstimate::defect;
+  reversible.control = StepControl::reversible;
+  REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, AdaptiveSteps<double>{defect}),
+                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("estimate = defect"));
+  REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, AdaptiveSteps<double>{reversible}),
+                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("control = reversible"));
+  // A driver of one's own between the samples would leave the flow out.
+  struct OwnBetween {
+    bool operator()(const Stepper<SimoKappa, Sc>&, State<double>& x, double t_next, const NoObserver&,
+                    SampledSummary<double>&) const {
+      x.time = t_next;
+      return true;
+    }
+  };
+  REQUIRE_THROWS_WITH(integrate_sampled(stepper, s, 1.0, 0.1, none, OwnBetween{}),
+                      Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("of one's own"));
   // The processed composition steps a kernel, not the output the flow would act on.
   ProcessedStepper<SimoKappa, Sc> processed(SimoKappa{}, stepper.scene());
   REQUIRE_THROWS_WITH(integrate_sampled(processed, s, 1.0, 0.1, none, FixedSteps<double>{0.1}),
                       Catch::Contains("sampled: the wheels have viscous friction") && Catch::Contains("ComposedStepper"));
   CHECK(s.omega == before.omega);
   CHECK(s.time == before.time);
-  // FixedSteps applies it.
+  // FixedSteps and AdaptiveSteps apply it.
   REQUIRE(integrate_sampled(stepper, s, 1.0, 0.1, none, FixedSteps<double>{0.1}).ok());
   CHECK(s.time == 1.0);
+  REQUIRE(integrate_sampled(stepper, s, 2.0, 0.1, none, AdaptiveSteps<double>{opt}).ok());
+  CHECK(s.time == 2.0);
 }
 
 // Closed-loop ensembles copy the stepper per member: each member with friction is its own

@@ -210,14 +210,18 @@ struct Integrator {
 
 namespace detail {
 /// Throws invalid_input if the stepper's scene has wheels with viscous friction [W17]: its
-/// flow is split around each step by integrate_sampled (FixedSteps) only, so `driver` (the
-/// caller's name) would leave it out.
+/// flow is split around each step by integrate_sampled only (it owns the wheels' hold line,
+/// which the flow moves), so `driver` (the caller's name) would leave it out. The sampled
+/// driver's own split step (FrictionSplitStepper, for its adaptive holds) passes.
 template <class Stepper>
 void refuse_wheel_friction(const Stepper& stepper, const char* driver) {
-  if constexpr (requires { stepper.scene().wheel_friction(); })
+  if constexpr (requires { Stepper::splits_friction; }) {  // the sampled driver's split step
+    (void)stepper, (void)driver;
+  } else if constexpr (requires { stepper.scene().wheel_friction(); }) {
     if (stepper.scene().wheel_friction())
-      detail::fail(driver, ": the wheels have viscous friction, which only integrate_sampled with FixedSteps "
-                   "applies (split around each step, docs/theory.md [W17]); ", driver, " would leave it out");
+      detail::fail(driver, ": the wheels have viscous friction, which only integrate_sampled applies (split "
+                   "around each step, docs/theory.md [W17]); ", driver, " would leave it out");
+  }
 }
 
 /// The number of steps of integrate's grid from t0 to t_end at h: ceil(span/h), less a few ulps so

@@ -27,7 +27,10 @@
 // Wheels with viscous friction [W17]: FixedSteps splits the friction's exact flow around each
 // step (around each sub-step of a ComposedStepper, which so keeps its order), with integrate's
 // grid and recovery by halves; a failed interval keeps the state and the wheels' hold line.
-// AdaptiveSteps refuses them (its error estimate would not see the flow).
+// AdaptiveSteps adapts the split step itself: integrate_adaptive runs on FrictionSplitStepper,
+// whose trajectory carries the wheels' hold line (a refused attempt puts the wheels back with
+// the state), under tolerance control with Richardson's estimate (the defect estimate [D4]
+// and reversible control read rates that do not see the friction, and are refused).
 //
 // The observer, if given, is called as observer(const State&) at t_0 and at each grid point
 // after it, once; at a sample it is called after the new command is held, so that
@@ -169,6 +172,10 @@ template <class Between>
 struct is_fixed_steps : std::false_type {};
 template <class Scalar>
 struct is_fixed_steps<FixedSteps<Scalar>> : std::true_type {};
+template <class Between>
+struct is_adaptive_steps : std::false_type {};
+template <class Scalar>
+struct is_adaptive_steps<AdaptiveSteps<Scalar>> : std::true_type {};
 template <class E, class Scalar, class... Effects>
 struct scene_has<E, Scene<Scalar, Effects...>> : std::bool_constant<(std::is_same_v<E, Effects> || ...)> {};
 }  // namespace detail
@@ -339,6 +346,100 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
   }
   return true;
 }
+
+/// [W17] The split step S_Δ of friction_split_attempt as a stepper, for the adaptive driver
+/// (AdaptiveSteps with friction). Its trajectory is the stepper's with the wheels' hold line
+/// (their momenta) beside it: each step starts the wheels from the line it carries and stores
+/// the line it leaves, so that an attempt the driver refuses, or one that fails, puts the
+/// wheels back with the state. Its order is the composition's (a ComposedStepper splits F
+/// around each sub-step) or 2 (Strang's split around any other step); it keeps what the
+/// stepper keeps, less the energy, which friction dissipates. `splits_friction` tells
+/// integrate_adaptive that the friction is not left out.
+template <class StepperT, class Traj>
+class FrictionSplitStepper {
+ public:
+  /// The stepper's scene.
+  using Scene = typename StepperT::Scene;
+  /// The scalar.
+  using Scalar = typename StepperT::Scalar;
+  /// The stepper's trajectory (or State) and the wheels' hold line.
+  struct Trajectory : Traj {
+    typename ReactionWheels<Scalar>::HoldLine line{};  ///< the wheels' momenta h_i at a time, and that time
+  };
+  /// What this stepper steps.
+  using TrajectoryType = Trajectory;
+  /// The friction is split here, not left out (refuse_wheel_friction).
+  static constexpr bool splits_friction = true;
+
+  /// Steps `stepper` (not owned) with the friction of `wheels` (its scene's, not owned).
+  FrictionSplitStepper(const StepperT& stepper, ReactionWheels<Scalar>& wheels) : stepper_(&stepper), wheels_(&wheels) {}
+  /// The stepper's scene.
+  const Scene& scene() const { return stepper_->scene(); }
+  /// The split step's order: the composition's, else min(2, the scheme's).
+  int order() const {
+    const auto flow = [](State<Scalar>&, Scalar) {};
+    if constexpr (requires(Traj& t) { stepper_->step(t, Scalar(1), flow); }) return stepper_->order();
+    else return std::min(stepper_->order(), 2);
+  }
+  /// What the stepper keeps, less the energy.
+  Keeps keeps() const {
+    Keeps k = stepper_->keeps();
+    k.energy = false;
+    k.energy_decays = false;
+    return k;
+  }
+  /// A trajectory at `t` with the wheels' present line.
+  Trajectory start(const Traj& t) const {
+    Trajectory r;
+    static_cast<Traj&>(r) = t;
+    r.line = wheels_->hold_line();
+    return r;
+  }
+  /// S_h from `t` (its wheels first); on failure `t` and its line are untouched.
+  StepReport<Scalar> step(Trajectory& t, Scalar h) const {
+    wheels_->set_hold_line(t.line);
+    const Traj saved = t;
+    const StepReport<Scalar> rep = friction_split_attempt(*stepper_, *wheels_, static_cast<Traj&>(t), t.time + h);
+    if (!rep.ok()) {
+      static_cast<Traj&>(t) = saved;
+      wheels_->set_hold_line(t.line);
+      return rep;
+    }
+    t.line = wheels_->hold_line();
+    return rep;
+  }
+
+ private:
+  const StepperT* stepper_;
+  ReactionWheels<Scalar>* wheels_;
+};
+
+/// [W17] A hold of adaptive steps with the wheels' viscous friction: integrate_adaptive on
+/// the split step (FrictionSplitStepper), the estimate Richardson's (automatic: doubling, or
+/// Richardson's with the `substeps` given); the observer at each accepted step.
+template <class StepperT, class Traj, class Obs>
+bool friction_split_adaptive(StepperT& stepper, Traj& traj, typename StepperT::Scalar t_next,
+                             const AdaptiveSteps<typename StepperT::Scalar>& between, Obs&& obs,
+                             SampledSummary<typename StepperT::Scalar>& sum) {
+  using Scalar = typename StepperT::Scalar;
+  auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
+  const FrictionSplitStepper<StepperT, Traj> split(std::as_const(stepper), rw);
+  auto t = split.start(traj);
+  AdaptiveOptions<Scalar> options = between.options;
+  if (options.estimate == ErrorEstimate::automatic)
+    options.estimate = options.substeps != 0 ? ErrorEstimate::richardson : ErrorEstimate::doubling;
+  AdaptiveSummary<Scalar> s;
+  if constexpr (std::is_same_v<std::decay_t<Obs>, NoObserver>) {
+    s = integrate_adaptive(split, t, t_next, options);
+  } else {
+    auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) { obs(b.state); };
+    s = integrate_adaptive(split, t, t_next, options, node_observer);
+  }
+  static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
+  rw.set_hold_line(t.line);  // the last accepted step's (a refused attempt may have moved it)
+  sum.add_adaptive_hold(s);
+  return s.ok();
+}
 }  // namespace detail
 
 /// Integrates `state` (a State or the stepper's Trajectory) from state.time to t_end with the
@@ -371,9 +472,22 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
     auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
     friction = rw.has_friction();
     if (friction) {
-      if constexpr (!detail::is_fixed_steps<Between>::value)
-        detail::fail("sampled: the wheels have viscous friction, whose flow is split around fixed steps "
-                     "(docs/theory.md [W17]): step between the samples with FixedSteps, not adaptive steps");
+      if constexpr (!detail::is_fixed_steps<Between>::value && !detail::is_adaptive_steps<Between>::value) {
+        detail::fail("sampled: the wheels have viscous friction, whose flow FixedSteps and AdaptiveSteps split "
+                     "around their steps (docs/theory.md [W17]); a driver of one's own between the samples would "
+                     "leave it out");
+      } else if constexpr (detail::is_adaptive_steps<Between>::value) {
+        // The split step's error is estimated by Richardson's rule; the defect [D4] and the
+        // reversible control [A5] read the rates Ω̇ of the scene, which do not see the friction.
+        if (between.options.estimate == ErrorEstimate::defect)
+          detail::fail("sampled: the wheels have viscous friction, whose split step (docs/theory.md [W17]) "
+                       "adaptive steps estimate by Richardson's rule: estimate = defect reads rates that do not "
+                       "see the friction; use automatic, doubling or richardson");
+        if (between.options.control != StepControl::tolerance)
+          detail::fail("sampled: the wheels have viscous friction, whose split step (docs/theory.md [W17]) "
+                       "adaptive steps take under tolerance control: control = reversible reads rates that do "
+                       "not see the friction");
+      }
       // The processed composition steps a kernel that is not the output state: a flow on the
       // output would be lost at the next kernel step while the wheels kept its momentum.
       if constexpr (detail::is_processed<StepperT>())
@@ -424,11 +538,17 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
       }
     };
     bool ok;
-    if constexpr (detail::is_fixed_steps<Between>::value && !detail::is_processed<StepperT>() &&
+    if constexpr ((detail::is_fixed_steps<Between>::value || detail::is_adaptive_steps<Between>::value) &&
+                  !detail::is_processed<StepperT>() &&
                   scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
       if (friction) {  // (refused above for the processed composition)
-        if constexpr (observed) ok = detail::friction_split_steps(stepper, state, t_next, between, inner, sum);
-        else ok = detail::friction_split_steps(stepper, state, t_next, between, NoObserver{}, sum);
+        if constexpr (detail::is_fixed_steps<Between>::value) {
+          if constexpr (observed) ok = detail::friction_split_steps(stepper, state, t_next, between, inner, sum);
+          else ok = detail::friction_split_steps(stepper, state, t_next, between, NoObserver{}, sum);
+        } else {
+          if constexpr (observed) ok = detail::friction_split_adaptive(stepper, state, t_next, between, inner, sum);
+          else ok = detail::friction_split_adaptive(stepper, state, t_next, between, NoObserver{}, sum);
+        }
         if (!ok) break;
         continue;
       }

@@ -1006,7 +1006,40 @@ TEST_CASE("sampled: steps limited by the angle turned at the sample's rate", "[c
   s.omega = Vec3(1, 0, 0);
   CHECK_THROWS_WITH(integrate_sampled(stepper, s, 1.0, T, none, FixedSteps<double>{T, {}, -0.1}), Catch::Contains("max_angle"));
   CHECK_THROWS_WITH(integrate_sampled(stepper, s, 1.0, T, none, FixedSteps<double>{T, {}, NAN}), Catch::Contains("max_angle"));
+  CHECK_THROWS_WITH(integrate_sampled(stepper, s, 1.0, T, none, FixedSteps<double>{T, {}, 0.1, -1}), Catch::Contains("max_steps"));
   CHECK(s.time == 0.0);
+
+  // FixedSteps::max_steps: a body spun up by a held torque asks ever more steps a hold; the run
+  // stops at the first sample whose hold would ask more than the limit, there, too_many_steps.
+  using Torqued = Scene<double, HeldBodyTorque<double>>;
+  Stepper<Splitting, Torqued> spun(Splitting(SplittingMethod::strang),
+                                   Torqued(RigidBody<double>(Vec3(3, 2, 1)), held_body_torque<double>()));
+  auto spin_up = [](const Sample<double>&) {
+    Command<double> c;
+    c.body_torque = Vec3(3, 0, 0);  // Ω_x grows by 1 rad/s each second
+    return c;
+  };
+  for (const std::int64_t limit : {std::int64_t(0), std::int64_t(12)}) {
+    State<double> x;
+    x.omega = Vec3(1, 0, 0);
+    std::vector<double> samples;
+    const auto sum = integrate_sampled(spun, x, 5.0, T, spin_up, FixedSteps<double>{T, {}, 0.1, limit},
+                                       [&](const State<double>& y) { samples.push_back(y.time); });
+    INFO("max_steps " << limit << ": " << sum.reason() << " at t = " << x.time << ", |Omega| " << x.omega.norm());
+    if (limit == 0) {  // no limit: to the end, 1 + 3·20 / 2 … steps a hold as Ω_x grows 1 → 6
+      CHECK(sum.ok());
+      CHECK(x.time == 5.0);
+      CHECK(sum.steps > 12 * 20 / 2);
+    } else {
+      // |Ω_k| T / 0.1 > 12 from |Ω_k| > 4.8: the hold starting at t = 4.0 (Ω_x = 5) is refused.
+      CHECK_FALSE(sum.ok());
+      CHECK(sum.too_many_steps);
+      CHECK(sum.reason() == "Too many steps.");
+      CHECK(x.time == Approx(4.0).epsilon(1e-15));
+      CHECK(x.omega.x() == Approx(5.0).epsilon(1e-12));
+      CHECK(samples.back() == x.time);  // the sample was observed; nothing after it
+    }
+  }
 }
 
 TEST_CASE("mrp: conventions of Basilisk's mrpFeedback", "[control]") {

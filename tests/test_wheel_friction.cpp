@@ -341,9 +341,19 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
     opt.rtol = rtol;
     opt.atol = rtol;
     opt.first_step = T;
-    const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, T, ctrl, AdaptiveSteps<double>{opt});
+    // π at every accepted step as an observer sees it: the wheels at that step's own line
+    // (Richardson's inner steps are reported after the attempt's last step moved them on).
+    double dpi = 0;
+    int nodes = 0;
+    auto watch = [&](const State<double>& x) {
+      dpi = std::max(dpi, (stepper.scene().spatial_momentum(x) - pi0).norm());
+      ++nodes;
+    };
+    const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, T, ctrl, AdaptiveSteps<double>{opt}, watch);
     REQUIRE(sum.ok());
     CHECK(s.time == t_end);
+    CHECK(nodes == sum.steps + 1);
+    CHECK(dpi <= 1e-14 * pi0.norm());
     CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
     const double e = (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
                      (stepper.scene().template effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();

@@ -288,7 +288,8 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
     """Wheel(friction=c): the torque -c * speed between wheel and body [W17], split around the
     fixed steps. With no command (MrpPd(0, 0)) the energy never rises and the wheels slow
     relative to the body; pi stays to round-off; the CLI's rows with the friction column are
-    the same bits; rtol and a negative c are refused in Python words."""
+    the same bits; rtol adapts the split step; a negative c, and rtol with t_eval or
+    dense_output, are refused in Python words."""
     from conftest import cli_path
     import subprocess
     wheels = [trompo.Wheel(axis, 0.05, speed0=s, friction=c)
@@ -321,8 +322,19 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
         assert np.array_equal(e["R"][i], single.R[-1]) and np.array_equal(e["wheel_speeds"][i], single.wheel_speeds[-1])
     with pytest.raises(ValueError, match="^friction: must be >= 0"):
         trompo.Wheel((1, 0, 0), 0.05, friction=-1.0)
-    with pytest.raises(ValueError, match="viscous friction, which needs fixed steps \\(dt\\), not rtol"):
-        trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0))
+    # Adaptive steps (rtol) adapt the split step [W17]: pi exact in every row (each with its
+    # own wheels), the end within 1e-6 of the fixed-step run at dt = 0.025 (order 2 there:
+    # ~1e-8 off); what reads rates without the friction is refused in Python words.
+    ada = trompo.control(sc, s0, 60.0, rtol=1e-9, atol=1e-9, period=0.5, controller=trompo.MrpPd(1, 5))
+    fine = trompo.control(sc, s0, 60.0, dt=0.025, period=0.5, controller=trompo.MrpPd(1, 5), every=10**6)
+    assert ada.success and ada.nsteps > 120
+    assert np.max(np.abs(ada.pi - ada.pi[0])) <= 1e-13 * np.linalg.norm(ada.pi[0])
+    assert np.max(np.abs(ada.R[-1] - fine.R[-1])) <= 1e-6
+    with pytest.raises(ValueError, match="viscous friction, which adaptive steps \\(rtol\\) take in a split step"
+                                         ".*not with t_eval"):
+        trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0), t_eval=[0.5])
+    with pytest.raises(ValueError, match="^dense_output: a wheel has viscous friction"):
+        trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0), dense_output=True)
 
 
 def test_the_builtin_controller_gives_the_cli_rows(tmp_path):

@@ -285,6 +285,14 @@ check "wheels with friction, no command: H never rises and falls by more than 1 
   --control-period 0.5 --order 6 --dt 0.025 --every 2400 >"$tmp/rwc6.csv" 2>&1
 check "wheels with friction, --order 4: within 1e-10 of the converged run, where order 2 is beyond 1e-8" \
   '[ $rc -eq 0 ] && paste -d, <(tail -1 "$tmp/rwc4.csv") <(tail -1 "$tmp/rwc6.csv") | awk -F, "{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>1e-10) bad=1}} END{exit bad}" && paste -d, <(tail -1 "$tmp/rwc.csv") <(tail -1 "$tmp/rwc6.csv") | awk -F, "{m=0; for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>m) m=d} exit !(m>1e-8)}"'
+# --rtol with friction: each hold adapts the split step [W17] (Richardson's estimate, doubling),
+# rows at its steps, each with its own wheels; pi exact in every row, the end within 3e-7 of the
+# converged --order 6 run (measured 6.4e-8 over 120 holds), and far from the same run without
+# friction (the friction's effect, measured 0.12).
+"$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3c.csv" --controller mrp-pd:1,5 \
+  --control-period 0.5 --rtol 1e-9 --atol 1e-9 >"$tmp/rwca.csv" 2>"$tmp/rwca.err"; rc=$?
+check "wheels with friction, --rtol 1e-9: exit 0, the summary line, pi exact, the end within 3e-7 of the converged run" \
+  '[ $rc -eq 0 ] && grep -qE "accepted, .*; reached t_end; method simo-kappa \(order 2\)$" "$tmp/rwca.err" && awk -F, "NR==2{for(i=16;i<=18;i++)p[i]=\$i; n=sqrt(p[16]^2+p[17]^2+p[18]^2)} NR>2{for(i=16;i<=18;i++){d=\$i-p[i]; if(d<0)d=-d; if(d>1e-13*n) bad=1}} END{exit bad}" "$tmp/rwca.csv" && paste -d, <(tail -1 "$tmp/rwca.csv") <(tail -1 "$tmp/rwc6.csv") | awk -F, "{for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>3e-7) bad=1}} END{exit bad}" && paste -d, <(tail -1 "$tmp/rwca.csv") <(tail -1 "$tmp/rw.csv") | awk -F, "{m=0; for(i=2;i<=10;i++){d=\$i-\$(i+25); if(d<0)d=-d; if(d>m) m=d} exit !(m>1e-2)}"'
 # --rtol: adaptive steps over each hold (a new run each hold), rows at every sample and at
 # every accepted step; against the fixed-step run at dt 0.1 and a converged one (order 4, dt 0.01).
 "$sim" --inertia 10,12,8 --omega 0.02,-0.01,0.03 --rotation 0.5,0.2,0 --t-end 60 --wheels "$tmp/rw3.csv" --controller mrp-pd:1,5 \
@@ -349,7 +357,10 @@ for bad in "--wheels $tmp/rw_zero.csv|axis must be finite and non-zero" \
            "--wheels $tmp/rw3.csv --mgl 1|a control run's scene has wheels" \
            "--wheels $tmp/rw3.csv --rtol 1e-6 --event nutation-max:terminal|--event nutation-max:terminal: not in a control run" \
            "--wheels $tmp/rw_cneg.csv $pd|rw_cneg.csv:2: wheels: wheel 1: friction must be finite and >= 0" \
-           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8|--wheels: a wheel has viscous friction, which needs fixed steps (--dt), not --rtol" \
+           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8 --t-eval 1,2|--wheels: a wheel has viscous friction, which adaptive steps (--rtol) take in a split step estimated by Richardson's rule: not with --t-eval" \
+           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8 --event axis-crossing|viscous friction, which adaptive steps (--rtol) take in a split step estimated by Richardson's rule: not with --event" \
+           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8 --estimate defect|Richardson's rule: not with --estimate defect" \
+           "--wheels $tmp/rw3c.csv $pd --rtol 1e-8 --control reversible|Richardson's rule: not with --control reversible" \
            "--wheels $tmp/rw3c.csv|--wheels: a wheel has viscous friction, which the sampled driver applies: give --controller"; do
   flags=${bad%%|*}; want=${bad#*|}
   "$sim" $ctl $flags >"$tmp/bad.csv" 2>"$tmp/bad.err"; rc=$?

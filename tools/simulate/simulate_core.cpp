@@ -579,13 +579,32 @@ struct HoldAdaptive {
   Nodes& nodes;
   Sink& sink;
   trompo::AdaptiveSummary<double>* total;
+  /// The scene's wheels when they have viscous friction (else nullptr): each hold then steps the
+  /// split step [W17] (trompo::detail::FrictionSplitStepper), as the library's AdaptiveSteps
+  /// does; the checks refuse --t-eval and --event with friction (their interpolants' rates do
+  /// not see it), so the nodes give rows at the steps only.
+  trompo::ReactionWheels<double>* friction_wheels = nullptr;
+  static constexpr bool applies_friction = true;
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& stepper, Traj& traj, double t_next, Obs&&, trompo::SampledSummary<double>& sum) const {
     using namespace trompo;
     auto observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const AdaptiveSummary<double>&) {
       nodes(a, b, t_next);
     };
-    const AdaptiveSummary<double> s = integrate_adaptive(stepper, traj, t_next, options, observer, events, sink);
+    AdaptiveSummary<double> s;
+    if (friction_wheels != nullptr) {
+      const detail::FrictionSplitStepper<StepperT, Traj> split(stepper, *friction_wheels);
+      auto t = split.start(traj);
+      auto split_observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const AdaptiveSummary<double>&) {
+        split.wheels_at(b.state.time);  // the rows' wheel speeds and total momentum at b
+        nodes(a, b, t_next);
+      };
+      s = integrate_adaptive(split, t, t_next, detail::friction_split_options(options), split_observer);
+      static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
+      friction_wheels->set_hold_line(t.line);  // the last accepted step's
+    } else {
+      s = integrate_adaptive(stepper, traj, t_next, options, observer, events, sink);
+    }
     total->accepted += s.accepted;
     total->rejected += s.rejected;
     total->failures += s.failures;
@@ -684,7 +703,9 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
                             scene.spatial_momentum(x), 0);
   };
   AdaptiveSummary<double> total;
-  const HoldAdaptive<decltype(nodes), decltype(sink)> between{opt, ev.empty() ? nullptr : &ev, nodes, sink, &total};
+  auto& wheels = stepper.scene().template effect<ReactionWheels<double>>();
+  const HoldAdaptive<decltype(nodes), decltype(sink)> between{opt, ev.empty() ? nullptr : &ev, nodes, sink, &total,
+                                                              wheels.has_friction() ? &wheels : nullptr};
   const SampledSummary<double> sum = integrate_sampled(stepper, s, t_end, period, ctrl, between, sample);
   if (!at_times && !(s.time == last_row)) row(s);  // the end, always
   if (event_file) std::fclose(event_file);

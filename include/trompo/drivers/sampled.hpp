@@ -30,15 +30,19 @@
 // AdaptiveSteps adapts the split step itself: integrate_adaptive runs on FrictionSplitStepper,
 // whose trajectory carries the wheels' hold line (a refused attempt puts the wheels back with
 // the state), under tolerance control with Richardson's estimate (the defect estimate [D4]
-// and reversible control read rates that do not see the friction, and are refused).
+// and reversible control read rates that do not see the friction, and are refused). A
+// `between` of one's own is refused with friction unless it declares applies_friction (the
+// CLI's adaptive holds, which step FrictionSplitStepper themselves).
 //
 // The observer, if given, is called as observer(const State&) at t_0 and at each grid point
 // after it, once; at a sample it is called after the new command is held, so that
 // stepper.scene() shows the command that starts there.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -75,7 +79,7 @@ struct SampledSummary {
   std::int64_t iterations = 0;  ///< Newton iterations of all steps and attempts
   StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
   std::string command_error;    ///< why a command was refused (empty: none)
-  bool too_many_steps = false;  ///< an adaptive hold reached AdaptiveOptions::max_steps before its sample
+  bool too_many_steps = false;  ///< a hold asked more steps than AdaptiveOptions::max_steps or FixedSteps::max_steps
   bool step_too_small = false;  ///< an adaptive hold's step fell below the time resolution before its sample
   Scalar time = Scalar(0);      ///< where the run ended
   /// Whether the run reached t_end.
@@ -113,12 +117,23 @@ struct FixedSteps {
   Scalar h;                      ///< the step (its sign must match the direction of the run)
   IntegrateOptions options{};    ///< integrate's recovery
   Scalar max_angle = Scalar(0);  ///< the most a step may turn the body (rad) at the sample's rate; 0: off
+  /// The most steps a hold may take (0: no limit). A hold that asks more (with max_angle, a body
+  /// that has spun up) stops the run at its sample with SampledSummary::too_many_steps, the
+  /// state, wheels and controller memory as they were there, rather than run on for as long as
+  /// the rate asks.
+  std::int64_t max_steps = 0;
 
-  /// Throws invalid_input for a max_angle that is negative or not finite (integrate_sampled
-  /// calls it before anything runs; h is checked by the stepper).
+  /// Throws invalid_input for a max_angle that is negative or not finite, or a negative
+  /// max_steps (integrate_sampled calls it before anything runs; h is checked by the stepper).
   void validate() const {
     if (!std::isfinite(static_cast<double>(max_angle)) || !(max_angle >= Scalar(0)))
       detail::fail("sampled: max_angle must be finite and >= 0 (rad), got ", max_angle);
+    if (max_steps < 0) detail::fail("sampled: max_steps must be >= 0 (0: no limit), got ", max_steps);
+  }
+  /// Whether a hold of signed length `span` in steps of `step` asks more than max_steps.
+  bool too_many(Scalar span, Scalar step) const {
+    using std::abs;
+    return max_steps > 0 && abs(step) > Scalar(0) && !(abs(span) / abs(step) <= Scalar(max_steps) + Scalar(0.5));
   }
   /// The step for a hold of signed length `span` at the rate |Ω| = `rate`: h, or with
   /// max_angle > 0, span/n as above.
@@ -136,6 +151,10 @@ struct FixedSteps {
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& stepper, Traj& traj, Scalar t_next, Obs&& obs, SampledSummary<Scalar>& sum) const {
     const Scalar step = step_for(traj.omega.norm(), t_next - traj.time);
+    if (too_many(t_next - traj.time, step)) {
+      sum.too_many_steps = true;
+      return false;
+    }
     const IntegrationSummary<Scalar> s = integrate(stepper, traj, t_next, step, std::forward<Obs>(obs), options);
     sum.steps += s.steps + s.substeps;
     sum.failures += s.failures;
@@ -176,6 +195,13 @@ template <class Between>
 struct is_adaptive_steps : std::false_type {};
 template <class Scalar>
 struct is_adaptive_steps<AdaptiveSteps<Scalar>> : std::true_type {};
+/// Whether a `between` of one's own applies the wheels' friction itself (it declares
+/// `static constexpr bool applies_friction = true`, e.g. by stepping FrictionSplitStepper).
+template <class Between>
+inline constexpr bool applies_friction_v = [] {
+  if constexpr (requires { Between::applies_friction; }) return bool(Between::applies_friction);
+  else return false;
+}();
 template <class E, class Scalar, class... Effects>
 struct scene_has<E, Scene<Scalar, Effects...>> : std::bool_constant<(std::is_same_v<E, Effects> || ...)> {};
 }  // namespace detail
@@ -335,6 +361,10 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
   auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
   const Scalar t0 = traj.time;
   const Scalar step = between.step_for(traj.omega.norm(), t_next - t0);
+  if (between.too_many(t_next - t0, step)) {
+    sum.too_many_steps = true;
+    return false;
+  }
   check_step_options(step, between.options);
   if ((step > Scalar(0)) != (t_next > t0))
     detail::fail("integrate: time step h = ", step, " is against the direction of the run to ", t_next);
@@ -406,17 +436,50 @@ class FrictionSplitStepper {
       return rep;
     }
     t.line = wheels_->hold_line();
+    last_ = (last_ + 1) % recent_size;
+    recent_[static_cast<std::size_t>(last_)] = {t.time, t.line};
     return rep;
+  }
+  /// Puts the wheels at the line of the latest step that ended at time `t`, if one of the last
+  /// few did: the adaptive driver reports the inner steps of Richardson's attempt after all of
+  /// its steps, when the wheels are at the last one's line, and an observer reading them (the
+  /// total momentum, the wheels' speeds) must see each step's own.
+  void wheels_at(Scalar t) const {
+    for (int k = 0; k < recent_size; ++k) {
+      const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
+      if (r.time == t) {
+        wheels_->set_hold_line(r.line);
+        return;
+      }
+    }
   }
 
  private:
   const StepperT* stepper_;
   ReactionWheels<Scalar>* wheels_;
+  struct Recent {
+    Scalar time = std::numeric_limits<Scalar>::quiet_NaN();
+    typename ReactionWheels<Scalar>::HoldLine line{};
+  };
+  /// The lines the last steps left (an attempt's m + 1 steps at most).
+  static constexpr int recent_size = AdaptiveOptions<Scalar>::max_substeps + 1;
+  mutable std::array<Recent, recent_size> recent_{};
+  mutable int last_ = 0;
 };
 
+/// [W17] The adaptive options of the split step: the estimate Richardson's (automatic becomes
+/// doubling, or Richardson's with the `substeps` given; integrate_sampled refuses the defect
+/// estimate and the reversible control with friction, which read rates without it).
+template <class Scalar>
+AdaptiveOptions<Scalar> friction_split_options(AdaptiveOptions<Scalar> options) {
+  if (options.estimate == ErrorEstimate::automatic)
+    options.estimate = options.substeps != 0 ? ErrorEstimate::richardson : ErrorEstimate::doubling;
+  return options;
+}
+
 /// [W17] A hold of adaptive steps with the wheels' viscous friction: integrate_adaptive on
-/// the split step (FrictionSplitStepper), the estimate Richardson's (automatic: doubling, or
-/// Richardson's with the `substeps` given); the observer at each accepted step.
+/// the split step (FrictionSplitStepper) with friction_split_options; the observer at each
+/// accepted step.
 template <class StepperT, class Traj, class Obs>
 bool friction_split_adaptive(StepperT& stepper, Traj& traj, typename StepperT::Scalar t_next,
                              const AdaptiveSteps<typename StepperT::Scalar>& between, Obs&& obs,
@@ -425,14 +488,15 @@ bool friction_split_adaptive(StepperT& stepper, Traj& traj, typename StepperT::S
   auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
   const FrictionSplitStepper<StepperT, Traj> split(std::as_const(stepper), rw);
   auto t = split.start(traj);
-  AdaptiveOptions<Scalar> options = between.options;
-  if (options.estimate == ErrorEstimate::automatic)
-    options.estimate = options.substeps != 0 ? ErrorEstimate::richardson : ErrorEstimate::doubling;
+  const AdaptiveOptions<Scalar> options = friction_split_options(between.options);
   AdaptiveSummary<Scalar> s;
   if constexpr (std::is_same_v<std::decay_t<Obs>, NoObserver>) {
     s = integrate_adaptive(split, t, t_next, options);
   } else {
-    auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) { obs(b.state); };
+    auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) {
+      split.wheels_at(b.state.time);
+      obs(b.state);
+    };
     s = integrate_adaptive(split, t, t_next, options, node_observer);
   }
   static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
@@ -472,10 +536,11 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
     auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
     friction = rw.has_friction();
     if (friction) {
-      if constexpr (!detail::is_fixed_steps<Between>::value && !detail::is_adaptive_steps<Between>::value) {
+      if constexpr (!detail::is_fixed_steps<Between>::value && !detail::is_adaptive_steps<Between>::value &&
+                    !detail::applies_friction_v<Between>) {
         detail::fail("sampled: the wheels have viscous friction, whose flow FixedSteps and AdaptiveSteps split "
                      "around their steps (docs/theory.md [W17]); a driver of one's own between the samples would "
-                     "leave it out");
+                     "leave it out (unless it applies it and says so: applies_friction)");
       } else if constexpr (detail::is_adaptive_steps<Between>::value) {
         // The split step's error is estimated by Richardson's rule; the defect [D4] and the
         // reversible control [A5] read the rates Ω̇ of the scene, which do not see the friction.

@@ -601,7 +601,7 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
     }
   } ctrl{{values[0], values[1], values[2], values[3]}, n_wheels};
   SampledSummary<double> sum;
-  // Viscous wheel friction [W17] on the fixed-step runs: one byte after each branch's own draws
+  // Viscous wheel friction [W17]: one byte after each branch's own draws
   // (a corpus input that ends before it keeps its run without friction), then c for each wheel.
   const auto maybe_friction = [&](auto& stepper) {
     if (!(in.byte() & 1)) return;
@@ -624,6 +624,7 @@ std::string exercise_sampled(const Scene& scene, trompo::State<double> s, Reader
           opt.control = (how & 3) == 3 ? StepControl::reversible : StepControl::tolerance;
           opt.estimate = static_cast<ErrorEstimate>((how >> 2) & 3);
           opt.max_steps = 1 + static_cast<std::int64_t>(in.choose(48));
+          maybe_friction(st);  // the split step under the adaptive driver [W17] (a byte more)
           sum = integrate_sampled(st, s, t_end, period, ctrl, AdaptiveSteps<double>{opt});
         } else {
           maybe_friction(st);

@@ -326,8 +326,9 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
     # own wheels), the end within 1e-6 of the fixed-step run at dt = 0.025 (order 2 there:
     # ~1e-8 off); what reads rates without the friction is refused in Python words.
     ada = trompo.control(sc, s0, 60.0, rtol=1e-9, atol=1e-9, period=0.5, controller=trompo.MrpPd(1, 5))
+    loose = trompo.control(sc, s0, 60.0, rtol=1e-6, atol=1e-6, period=0.5, controller=trompo.MrpPd(1, 5))
     fine = trompo.control(sc, s0, 60.0, dt=0.025, period=0.5, controller=trompo.MrpPd(1, 5), every=10**6)
-    assert ada.success and ada.nsteps > 120
+    assert ada.success and loose.success and ada.nsteps > 2 * loose.nsteps
     assert np.max(np.abs(ada.pi - ada.pi[0])) <= 1e-13 * np.linalg.norm(ada.pi[0])
     assert np.max(np.abs(ada.R[-1] - fine.R[-1])) <= 1e-6
     with pytest.raises(ValueError, match="viscous friction, which adaptive steps \\(rtol\\) take in a split step"

@@ -570,8 +570,20 @@ struct AdaptiveLoop {
         // An event within a few ulp of t of the step's start (no step to take) ends the run
         // at that node, which the observer has seen: no step of zero length is reported
         // (its interpolant would divide by h = 0).
+        // Its node is checked as commit's are: a state whose rates overflow has no interpolant
+        // (found by the fuzzer: Ω̈ = NaN at an event reached by a step of 1.6e-15 from
+        // |Ω̇| ≈ 1e43); the event is then reported from the step's own interpolant, as when the
+        // real step fails, and the run goes on.
         if constexpr (observed) {
-          if (real.time != a.state.time) notify(a, dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real)));
+          if (real.time != a.state.time) {
+            DenseNode<Scalar> end = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real));
+            if (opt.quintic) add_second_rate(stepper.scene(), end);
+            if (!rates_finite(end) || !interpolable(a, end)) {
+              if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
+              continue;
+            }
+            notify(a, end);
+          }
         }
         if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, static_cast<const State<Scalar>&>(real), true);
         traj = real;
@@ -595,14 +607,19 @@ struct AdaptiveLoop {
 
   /// Whether the segment between two nodes can be evaluated: its rotation vector, at most
   /// |h|(|Ω_a| + |Ω_b|) + h²(|Ω̇_a| + |Ω̇_b|) (+ |h|³(|Ω̈_a| + |Ω̈_b|) for the quintic) in each
-  /// component, stays far below √(max) (~1e154 in double), whose square exp would overflow.
+  /// component, stays far below √(max) (~1e154 in double), whose square exp would overflow;
+  /// and its rate's Hermite data, |Ω_a| + |Ω_b| + |h|(|Ω̇_a| + |Ω̇_b|) (+ h²(|Ω̈_a| + |Ω̈_b|)),
+  /// far below max, so that Ω_b − Ω_a and the basis' sums do not overflow (found by the fuzzer:
+  /// |Ω| near 1e308 over a step of 1e-160, whose interpolant gave NaN at its own nodes).
   bool interpolable(const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) const {
     using std::abs, std::sqrt;
     const Scalar h = abs(b.state.time - a.state.time);
     const auto largest = [](const Eigen::Matrix<Scalar, 3, 1>& v) { return v.cwiseAbs().maxCoeff(); };
-    Scalar size = h * (largest(a.state.omega) + largest(b.state.omega)) + h * h * (largest(a.omega_dot) + largest(b.omega_dot));
-    if (opt.quintic) size += h * h * h * (largest(a.omega_ddot) + largest(b.omega_ddot));
-    return size <= sqrt(std::numeric_limits<Scalar>::max()) / Scalar(1024);  // false for NaN
+    Scalar rates = largest(a.state.omega) + largest(b.state.omega) + h * (largest(a.omega_dot) + largest(b.omega_dot));
+    if (opt.quintic) rates += h * h * (largest(a.omega_ddot) + largest(b.omega_ddot));
+    const Scalar size = h * rates;
+    return size <= sqrt(std::numeric_limits<Scalar>::max()) / Scalar(1024) &&  // false for NaN
+           rates <= std::numeric_limits<Scalar>::max() / Scalar(1024);
   }
 
   /// Whether a step from t of size h lands on (or beyond) t_end: then it is shortened.

@@ -209,13 +209,21 @@ struct Integrator {
 }  // namespace detail
 
 namespace detail {
+/// Whether a stepper splits the wheels' friction itself (declares `splits_friction = true`:
+/// the sampled driver's FrictionSplitStepper).
+template <class Stepper>
+inline constexpr bool splits_friction_v = [] {
+  if constexpr (requires { Stepper::splits_friction; }) return bool(Stepper::splits_friction);
+  else return false;
+}();
+
 /// Throws invalid_input if the stepper's scene has wheels with viscous friction [W17]: its
 /// flow is split around each step by integrate_sampled only (it owns the wheels' hold line,
 /// which the flow moves), so `driver` (the caller's name) would leave it out. The sampled
 /// driver's own split step (FrictionSplitStepper, for its adaptive holds) passes.
 template <class Stepper>
 void refuse_wheel_friction(const Stepper& stepper, const char* driver) {
-  if constexpr (requires { Stepper::splits_friction; }) {  // the sampled driver's split step
+  if constexpr (splits_friction_v<Stepper>) {  // the sampled driver's split step
     (void)stepper, (void)driver;
   } else if constexpr (requires { stepper.scene().wheel_friction(); }) {
     if (stepper.scene().wheel_friction())
@@ -253,6 +261,17 @@ void check_step_options(Scalar h, const IntegrateOptions& options) {
   if (!static_cast<bool>(isfinite(h)) || h == Scalar(0))
     detail::fail("integrate: time step h must be finite and non-zero, got ", h);
   if (options.max_halvings < 0) detail::fail("integrate: max_halvings must be >= 0, got ", options.max_halvings);
+}
+
+/// The number of steps of integrate's grid over a hold from t_a to t_b (≠ t_a) at `step`, after
+/// integrate()'s checks of the step (throws invalid_input as integrate() would): the sampled
+/// driver's FixedSteps::max_steps and its friction split use it.
+template <class Scalar>
+std::int64_t hold_grid(Scalar t_a, Scalar t_b, Scalar step, const IntegrateOptions& options) {
+  check_step_options(step, options);
+  if ((step > Scalar(0)) != (t_b > t_a))
+    detail::fail("integrate: time step h = ", step, " is against the direction of the run to ", t_b);
+  return grid_steps(t_a, t_b, step);
 }
 
 /// Whether a plain State is integrated with a stepper whose scheme carries memory.

@@ -76,6 +76,7 @@ struct SampledSummary {
   std::int64_t samples = 0;     ///< controller calls whose command was held
   std::int64_t steps = 0;       ///< accepted steps (whole grid intervals or adaptive steps)
   std::int64_t failures = 0;    ///< failed step attempts (recovered or not)
+  std::int64_t rejected = 0;    ///< adaptive attempts refused by the error test
   std::int64_t iterations = 0;  ///< Newton iterations of all steps and attempts
   StepStatus status = StepStatus::ok;  ///< a step failure that stopped the run, or ok
   std::string command_error;    ///< why a command was refused (empty: none)
@@ -98,6 +99,7 @@ struct SampledSummary {
   /// (found by the fuzzer).
   void add_adaptive_hold(const AdaptiveSummary<Scalar>& s) {
     steps += s.accepted;
+    rejected += s.rejected;
     failures += s.failures;
     iterations += s.iterations;
     status = s.failure;
@@ -118,9 +120,10 @@ struct FixedSteps {
   IntegrateOptions options{};    ///< integrate's recovery
   Scalar max_angle = Scalar(0);  ///< the most a step may turn the body (rad) at the sample's rate; 0: off
   /// The most steps a hold may take (0: no limit). A hold that asks more (with max_angle, a body
-  /// that has spun up) stops the run at its sample with SampledSummary::too_many_steps, the
-  /// state, wheels and controller memory as they were there, rather than run on for as long as
-  /// the rate asks.
+  /// that has spun up) stops the run at its sample with SampledSummary::too_many_steps, rather
+  /// than run on for as long as the rate asks: the state and the wheels are those of the sample,
+  /// whose command was held (and observed) and whose controller memory was kept, so the run can
+  /// go on from there with a larger limit.
   std::int64_t max_steps = 0;
 
   /// Throws invalid_input for a max_angle that is negative or not finite, or a negative
@@ -130,11 +133,8 @@ struct FixedSteps {
       detail::fail("sampled: max_angle must be finite and >= 0 (rad), got ", max_angle);
     if (max_steps < 0) detail::fail("sampled: max_steps must be >= 0 (0: no limit), got ", max_steps);
   }
-  /// Whether a hold of signed length `span` in steps of `step` asks more than max_steps.
-  bool too_many(Scalar span, Scalar step) const {
-    using std::abs;
-    return max_steps > 0 && abs(step) > Scalar(0) && !(abs(span) / abs(step) <= Scalar(max_steps) + Scalar(0.5));
-  }
+  /// Whether a hold of n steps is more than max_steps allows.
+  bool too_many(std::int64_t n) const { return max_steps > 0 && n > max_steps; }
   /// The step for a hold of signed length `span` at the rate |Ω| = `rate`: h, or with
   /// max_angle > 0, span/n as above.
   Scalar step_for(Scalar rate, Scalar span) const {
@@ -151,7 +151,7 @@ struct FixedSteps {
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& stepper, Traj& traj, Scalar t_next, Obs&& obs, SampledSummary<Scalar>& sum) const {
     const Scalar step = step_for(traj.omega.norm(), t_next - traj.time);
-    if (too_many(t_next - traj.time, step)) {
+    if (max_steps > 0 && traj.time != t_next && too_many(detail::hold_grid(traj.time, t_next, step, options))) {
       sum.too_many_steps = true;
       return false;
     }
@@ -361,14 +361,11 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
   auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
   const Scalar t0 = traj.time;
   const Scalar step = between.step_for(traj.omega.norm(), t_next - t0);
-  if (between.too_many(t_next - t0, step)) {
+  const std::int64_t n = hold_grid(t0, t_next, step, between.options);
+  if (between.too_many(n)) {
     sum.too_many_steps = true;
     return false;
   }
-  check_step_options(step, between.options);
-  if ((step > Scalar(0)) != (t_next > t0))
-    detail::fail("integrate: time step h = ", step, " is against the direction of the run to ", t_next);
-  const std::int64_t n = grid_steps(t0, t_next, step);
   for (std::int64_t k = 1; k <= n; ++k) {
     const Scalar t_b = k == n ? t_next : t0 + static_cast<Scalar>(k) * step;
     if (!friction_split_interval(std::as_const(stepper), rw, traj, t_b, between.options.max_halvings, sum)) return false;
@@ -384,7 +381,9 @@ bool friction_split_steps(StepperT& stepper, Traj& traj, typename StepperT::Scal
 /// wheels back with the state. Its order is the composition's (a ComposedStepper splits F
 /// around each sub-step) or 2 (Strang's split around any other step); it keeps what the
 /// stepper keeps, less the energy, which friction dissipates. `splits_friction` tells
-/// integrate_adaptive that the friction is not left out.
+/// integrate_adaptive that the friction is not left out. It must not expose scheme() or
+/// stages(): the adaptive driver would then copy a trajectory's state without its line (its
+/// in-place attempts and partial copies of a composition's memory).
 template <class StepperT, class Traj>
 class FrictionSplitStepper {
  public:
@@ -437,17 +436,21 @@ class FrictionSplitStepper {
     }
     t.line = wheels_->hold_line();
     last_ = (last_ + 1) % recent_size;
-    recent_[static_cast<std::size_t>(last_)] = {t.time, t.line};
+    recent_[static_cast<std::size_t>(last_)] = {t.time, h, t.line};
     return rep;
   }
   /// Puts the wheels at the line of the latest step that ended at time `t`, if one of the last
   /// few did: the adaptive driver reports the inner steps of Richardson's attempt after all of
   /// its steps, when the wheels are at the last one's line, and an observer reading them (the
-  /// total momentum, the wheels' speeds) must see each step's own.
+  /// total momentum, the wheels' speeds) must see each step's own. "At t" within a few ulps of
+  /// the step: the driver stores its own grid time t_b after a step of t_b − t from t, and
+  /// t + (t_b − t) is t_b only where the subtraction is exact (not across t = 0).
   void wheels_at(Scalar t) const {
+    using std::abs;
+    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
     for (int k = 0; k < recent_size; ++k) {
       const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
-      if (r.time == t) {
+      if (abs(r.time - t) <= Scalar(4) * eps * (abs(t) + abs(r.h))) {
         wheels_->set_hold_line(r.line);
         return;
       }
@@ -458,8 +461,9 @@ class FrictionSplitStepper {
   const StepperT* stepper_;
   ReactionWheels<Scalar>* wheels_;
   struct Recent {
-    Scalar time = std::numeric_limits<Scalar>::quiet_NaN();
-    typename ReactionWheels<Scalar>::HoldLine line{};
+    Scalar time = std::numeric_limits<Scalar>::quiet_NaN();  ///< where the step ended
+    Scalar h = Scalar(0);                                     ///< its length
+    typename ReactionWheels<Scalar>::HoldLine line{};         ///< the line it left
   };
   /// The lines the last steps left (an attempt's m + 1 steps at most).
   static constexpr int recent_size = AdaptiveOptions<Scalar>::max_substeps + 1;
@@ -530,7 +534,7 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
   if (!std::isfinite(static_cast<double>(t_end))) detail::fail("sampled: t_end must be finite, got ", t_end);
   if constexpr (requires { between.validate(); }) between.validate();
   state.validate();
-  // [W17] Wheels with viscous friction: its exact flow is split around each fixed step.
+  // [W17] Wheels with viscous friction: its exact flow is split around each step.
   bool friction = false;
   if constexpr (scene_has_v<ReactionWheels<Scalar>, std::decay_t<decltype(stepper.scene())>>) {
     auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();

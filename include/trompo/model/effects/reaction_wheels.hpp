@@ -31,7 +31,7 @@
 //
 // Viscous friction [W17]: a wheel may have a coefficient c_i ≥ 0, the torque −c_i Ω_i between
 // wheel and hub. It makes h_i depend on the body inside a hold, so it is not in the hold's
-// line: the sampled driver splits it around each fixed step (Strang; around each sub-step of
+// line: the sampled driver splits it around each step, fixed or adaptive (Strang; around each sub-step of
 // a ComposedStepper, which so keeps its order), as the exact flow of
 // friction alone (friction_flow: Λ and Π fixed, the relative speeds decaying by a matrix
 // exponential), which keeps π and dissipates exactly Σ c_i Ω_i² over its time. The schemes

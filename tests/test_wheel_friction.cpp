@@ -292,23 +292,29 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
   const Mat3 R_ref = Eigen::Quaterniond(y.q(3), y.q(0), y.q(1), y.q(2)).normalized().toRotationMatrix();
   const Vec3 omega_ref = Jinv * (y.Pi - rw0.axes() * y.h);
 
-  auto errors = [&](auto make_stepper) {
-  std::vector<double> err;
-  for (const double dt : {0.1, 0.05, 0.025}) {
-    auto stepper = make_stepper();
+  // A run's start (the stepper's wheels started there, π₀) and its end's distance to the reference.
+  auto started = [&](auto stepper) {
     State<double> s;
     s.rotation = SO3d::exp(theta0);
     s.omega = omega0;
     stepper.scene().template effect<Wheels>().start(0.0, s.omega);
     const Vec3 pi0 = stepper.scene().spatial_momentum(s);
-    HoldEach ctrl{&four_commands};
-    REQUIRE(integrate_sampled(stepper, s, t_end, T, ctrl, FixedSteps<double>{dt}).ok());
-    CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
-    const double e = (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
-                     (stepper.scene().template effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();
-    err.push_back(e);
-  }
-  return err;
+    return std::tuple{std::move(stepper), s, pi0};
+  };
+  auto error_of = [&](const auto& stepper, const State<double>& s) {
+    return (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
+           (stepper.scene().template effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();
+  };
+  auto errors = [&](auto make_stepper) {
+    std::vector<double> err;
+    for (const double dt : {0.1, 0.05, 0.025}) {
+      auto [stepper, s, pi0] = started(make_stepper());
+      HoldEach ctrl{&four_commands};
+      REQUIRE(integrate_sampled(stepper, s, t_end, T, ctrl, FixedSteps<double>{dt}).ok());
+      CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+      err.push_back(error_of(stepper, s));
+    }
+    return err;
   };
   const std::vector<double> e2 = errors([&] { return Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(hub, rw0)); });
   // A composed stepper's sub-steps each sit between two flows: the composition of the
@@ -331,12 +337,10 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
   // refuse: the wheels' line is put back at every sample (else the friction of each refused
   // attempt would stay in the wheels, an error of c·Δt ≈ 1e-2 whatever the tolerance).
   auto adaptive = [&](auto make_stepper, double rtol) {
-    auto stepper = make_stepper();
-    State<double> s;
-    s.rotation = SO3d::exp(theta0);
-    s.omega = omega0;
-    stepper.scene().template effect<Wheels>().start(0.0, s.omega);
-    const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+    auto run = started(make_stepper());  // (named references: the observer below captures them)
+    auto& stepper = std::get<0>(run);
+    State<double>& s = std::get<1>(run);
+    const Vec3 pi0 = std::get<2>(run);
     HoldEach ctrl{&four_commands};
     AdaptiveOptions<double> opt;
     opt.rtol = rtol;
@@ -356,9 +360,7 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
     CHECK(nodes == sum.steps + 1);
     CHECK(dpi <= 1e-14 * pi0.norm());
     CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
-    const double e = (s.rotation.matrix() - R_ref).norm() + (s.omega - omega_ref).norm() / omega_ref.norm() +
-                     (stepper.scene().template effect<Wheels>().momenta(s.time) - y.h).norm() / y.h.norm();
-    return std::tuple{e, sum.steps, sum.rejected};
+    return std::tuple{error_of(stepper, s), sum.steps, sum.rejected};
   };
   for (const bool composed : {false, true}) {
     std::vector<double> ea;
@@ -386,13 +388,7 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
   // read with the wheels, is π₀ (a refused attempt's friction, ~1e-3 of the wheels' momenta,
   // would show). And FixedSteps::max_steps stops the run at the sample before the hold.
   {
-    Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(hub, rw0));
-    State<double> s;
-    s.rotation = SO3d::exp(theta0);
-    s.omega = omega0;
-    auto& wheels = stepper.scene().template effect<Wheels>();
-    wheels.start(0.0, s.omega);
-    const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+    auto [stepper, s, pi0] = started(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(hub, rw0)));
     HoldEach ctrl{&four_commands};
     AdaptiveOptions<double> opt;
     opt.rtol = opt.atol = 1e-10;
@@ -405,11 +401,8 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
     CHECK(s.time < T);
     CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
 
-    State<double> x;
-    x.rotation = SO3d::exp(theta0);
-    x.omega = omega0;
-    Stepper<SimoKappa, Sc> fixed(SimoKappa{}, Sc(hub, rw0));
-    fixed.scene().template effect<Wheels>().start(0.0, x.omega);
+    auto [fixed, x, pi_fixed] = started(Stepper<SimoKappa, Sc>(SimoKappa{}, Sc(hub, rw0)));
+    (void)pi_fixed;
     // 5 steps a hold at h = 0.1; a limit of 4 refuses the first hold before any step
     const SampledSummary<double> none = integrate_sampled(fixed, x, t_end, T, ctrl, FixedSteps<double>{0.1, {}, 0, 4});
     CHECK(none.too_many_steps);

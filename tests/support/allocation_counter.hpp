@@ -57,6 +57,13 @@ void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
 }
 void* operator new(std::size_t n, std::align_val_t a) { return no_alloc::counted_aligned(n, a); }
 void* operator new[](std::size_t n, std::align_val_t a) { return no_alloc::counted_aligned(n, a); }
+// g++ 12 at -O1 and above, once a container's deallocation is inlined into a test, sees
+// free() on a pointer from operator new and warns (-Wmismatched-new-delete): these are the
+// replacements of both, which pair malloc with free, so the warning is silenced here.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
 void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
@@ -65,6 +72,9 @@ void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 #include <Eigen/Core>
 

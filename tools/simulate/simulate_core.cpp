@@ -580,7 +580,7 @@ struct HoldAdaptive {
   Sink& sink;
   trompo::AdaptiveSummary<double>* total;
   /// The scene's wheels when they have viscous friction (else nullptr): each hold then steps the
-  /// split step [W17] (trompo::detail::FrictionSplitStepper), as the library's AdaptiveSteps
+  /// split step [W17] (trompo::detail::friction_split_hold), as the library's AdaptiveSteps
   /// does; the checks refuse --t-eval and --event with friction (their interpolants' rates do
   /// not see it), so the nodes give rows at the steps only.
   trompo::ReactionWheels<double>* friction_wheels = nullptr;
@@ -592,16 +592,9 @@ struct HoldAdaptive {
       nodes(a, b, t_next);
     };
     AdaptiveSummary<double> s;
-    if (friction_wheels != nullptr) {
-      const detail::FrictionSplitStepper<StepperT, Traj> split(stepper, *friction_wheels);
-      auto t = split.start(traj);
-      auto split_observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const AdaptiveSummary<double>&) {
-        split.wheels_at(b.state.time);  // the rows' wheel speeds and total momentum at b
-        nodes(a, b, t_next);
-      };
-      s = integrate_adaptive(split, t, t_next, detail::friction_split_options(options), split_observer);
-      static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
-      friction_wheels->set_hold_line(t.line);  // the last accepted step's
+    if (friction_wheels != nullptr) {  // the rows' wheel speeds and total momentum at each step's own line
+      s = detail::friction_split_hold(stepper, *friction_wheels, traj, t_next, options,
+                                      [&](const DenseNode<double>& a, const DenseNode<double>& b) { nodes(a, b, t_next); });
     } else {
       s = integrate_adaptive(stepper, traj, t_next, options, observer, events, sink);
     }

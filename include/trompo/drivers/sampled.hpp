@@ -481,30 +481,51 @@ AdaptiveOptions<Scalar> friction_split_options(AdaptiveOptions<Scalar> options) 
   return options;
 }
 
-/// [W17] A hold of adaptive steps with the wheels' viscous friction: integrate_adaptive on
-/// the split step (FrictionSplitStepper) with friction_split_options; the observer at each
-/// accepted step.
+/// [W17] One hold of adaptive steps with the wheels' viscous friction: integrate_adaptive on
+/// the split step (FrictionSplitStepper of `stepper` and its scene's `wheels`) from `traj` to
+/// t_next, with friction_split_options; `observe(a, b)` at each accepted step, the wheels put
+/// at b's own line first (NoObserver: none). `traj` and the wheels end at the last accepted
+/// step (a refused attempt may have moved the wheels). The library's AdaptiveSteps and the
+/// CLI's adaptive holds both step here.
+template <class StepperT, class Traj, class NodeObserver = NoObserver>
+AdaptiveSummary<typename StepperT::Scalar> friction_split_hold(const StepperT& stepper,
+                                                               ReactionWheels<typename StepperT::Scalar>& wheels,
+                                                               Traj& traj, typename StepperT::Scalar t_next,
+                                                               AdaptiveOptions<typename StepperT::Scalar> options,
+                                                               NodeObserver&& observe = {}) {
+  using Scalar = typename StepperT::Scalar;
+  const FrictionSplitStepper<StepperT, Traj> split(stepper, wheels);
+  auto t = split.start(traj);
+  options = friction_split_options(options);
+  AdaptiveSummary<Scalar> s;
+  if constexpr (std::is_same_v<std::decay_t<NodeObserver>, NoObserver>) {
+    s = integrate_adaptive(split, t, t_next, options);
+  } else {
+    auto node_observer = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+      split.wheels_at(b.state.time);
+      observe(a, b);
+    };
+    s = integrate_adaptive(split, t, t_next, options, node_observer);
+  }
+  static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
+  wheels.set_hold_line(t.line);
+  return s;
+}
+
+/// [W17] A hold of AdaptiveSteps with the wheels' viscous friction (friction_split_hold); the
+/// observer at each accepted step.
 template <class StepperT, class Traj, class Obs>
 bool friction_split_adaptive(StepperT& stepper, Traj& traj, typename StepperT::Scalar t_next,
                              const AdaptiveSteps<typename StepperT::Scalar>& between, Obs&& obs,
                              SampledSummary<typename StepperT::Scalar>& sum) {
   using Scalar = typename StepperT::Scalar;
   auto& rw = stepper.scene().template effect<ReactionWheels<Scalar>>();
-  const FrictionSplitStepper<StepperT, Traj> split(std::as_const(stepper), rw);
-  auto t = split.start(traj);
-  const AdaptiveOptions<Scalar> options = friction_split_options(between.options);
   AdaptiveSummary<Scalar> s;
-  if constexpr (std::is_same_v<std::decay_t<Obs>, NoObserver>) {
-    s = integrate_adaptive(split, t, t_next, options);
-  } else {
-    auto node_observer = [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) {
-      split.wheels_at(b.state.time);
-      obs(b.state);
-    };
-    s = integrate_adaptive(split, t, t_next, options, node_observer);
-  }
-  static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
-  rw.set_hold_line(t.line);  // the last accepted step's (a refused attempt may have moved it)
+  if constexpr (std::is_same_v<std::decay_t<Obs>, NoObserver>)
+    s = friction_split_hold(std::as_const(stepper), rw, traj, t_next, between.options);
+  else
+    s = friction_split_hold(std::as_const(stepper), rw, traj, t_next, between.options,
+                            [&](const DenseNode<Scalar>&, const DenseNode<Scalar>& b) { obs(b.state); });
   sum.add_adaptive_hold(s);
   return s.ok();
 }

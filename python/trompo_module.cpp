@@ -566,11 +566,11 @@ py::tuple control_run(const std::map<std::string, std::string>& flags, const Arr
   Config c;
   try {
     c = parse_flags(flags);
-    set_wheels(c, flags, wheels, limits);
     if (!events.is_none()) {  // Python event functions (adaptive steps only), as simulate_flags'
       if (!c.adaptive.on) throw py::value_error("events: only with adaptive steps (give rtol)");
       for (const py::handle& item : events) c.adaptive.code_events.push_back(python_event(item));
     }
+    set_wheels(c, flags, wheels, limits);  // then check_control, which sees the events too (terminal, friction)
     c.rotation_matrix = matrix_of(rotation);
     c.omega = V3(omega.data()[0], omega.data()[1], omega.data()[2]);
     if (target_matrix) c.control.target_matrix = target_matrix;

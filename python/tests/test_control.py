@@ -336,6 +336,10 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
         trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0), t_eval=[0.5])
     with pytest.raises(ValueError, match="^dense_output: a wheel has viscous friction"):
         trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0), dense_output=True)
+    # an event function too (the engine checked the flags before the functions were added,
+    # and the run found no event at all)
+    with pytest.raises(ValueError, match="^events: a wheel has viscous friction"):
+        trompo.control(sc, s0, 1.0, rtol=1e-8, period=0.5, controller=trompo.MrpPd(0, 0), events=[lambda t, y: t - 0.3])
 
 
 def test_the_builtin_controller_gives_the_cli_rows(tmp_path):
@@ -418,6 +422,12 @@ def test_adaptive_steps_between_the_samples():
         np.testing.assert_array_equal(y[:9, k], at.R[j].ravel())
         np.testing.assert_array_equal(y[9:, k], at.W[j])
     np.testing.assert_array_equal(dense.sol(20.0)[:9], builtin.R[-1].ravel())
+    # a terminal event function would end a hold, not the run (the next samples off the grid
+    # k * period): refused, as the CLI refuses --event NAME:terminal
+    stop = lambda t, y: y[9]  # noqa: E731
+    stop.terminal = True
+    with pytest.raises(ValueError, match="^events\\[1\\]\\.terminal: a terminal event would end a hold"):
+        trompo.control(sc, s0, 1.0, controller=trompo.MrpPd(K=3.5, P=30), events=[crossing, stop], **run)
     with pytest.raises(ValueError, match="^t_eval: only with adaptive steps"):
         trompo.control(sc, s0, 1.0, controller=trompo.MrpPd(K=3.5, P=30), period=0.1, dt=0.05, t_eval=[0.5])
     with pytest.raises(ValueError, match="^dt: required"):
@@ -469,3 +479,23 @@ def test_control_ensemble_members_are_their_single_runs():
     with pytest.raises(ValueError, match="member 2: .*hub"):
         trompo.control_ensemble(sc, rot, om, 1.0, dt=0.1, period=0.1, controller=pd,
                                 inertia=[[900, 800, 600], [900, 800, 600], [0.05, 0.05, 0.05]])
+
+
+def test_the_engine_refuses_event_functions_that_control_refuses():
+    """The engine's own check (check_control) sees the event functions too, since the binding
+    adds them before it: with friction, and terminal (control() refuses both first, in
+    Python words; before, the engine never saw the functions, and the friction run found no
+    event at all)."""
+    s0 = trompo.initial_state(rotvec=(0, 0, 0), omega=(0.01, 0, 0))
+    cases = ((1e-3, 0, "viscous friction.*not with --event"),
+             (0.0, 1, "^--event python-event-0: terminal: not in a control run"))
+    for friction, terminal, message in cases:
+        wheels = [trompo.Wheel(axis, 0.05, speed0=10.0, friction=friction) for axis in np.eye(3)]
+        sc = trompo.Spacecraft([900, 800, 600], wheels=wheels)
+        flags, target, fn = trompo._control_flags(sc, trompo.MrpPd(0, 0), 1.0, 0.5, None, 1e-8, "simo-kappa", 2,
+                                                  None, None)
+        flags.update({"--rtol": "1e-8", "--atol": "1e-8"})
+        wheels, limits = trompo._wheel_arrays(sc)
+        event = ("python-event-0", lambda t, y: t - 0.3, 0, terminal)
+        with pytest.raises(ValueError, match=message):
+            trompo._control_run(flags, wheels, limits, s0.R, s0.omega, target, fn, None, [event])

@@ -742,10 +742,13 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         raise ValueError(f"{what}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
-    if dense_output and rtol is not None and any(w.friction > 0 for w in spacecraft.wheels):
-        raise ValueError("dense_output: a wheel has viscous friction, which adaptive steps (rtol) take in a split "
-                         "step estimated by Richardson's rule: not with dense_output (its interpolant reads rates "
-                         "that do not see the friction)")
+    if rtol is not None and any(w.friction > 0 for w in spacecraft.wheels):
+        what = ("t_eval" if t_eval is not None else "events" if events is not None
+                else "dense_output" if dense_output else None)
+        if what is not None:  # (the engine refuses them too; an event function would find nothing)
+            raise ValueError(f"{what}: a wheel has viscous friction, which adaptive steps (rtol) take in a split "
+                             f"step estimated by Richardson's rule: not with {what} (its interpolant reads rates "
+                             "that do not see the friction)")
     flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle,
                                        composition)
     memory = {} if fn is not None else None
@@ -758,6 +761,10 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         if t_eval is not None:
             flags["--t-eval"] = _text(np.atleast_1d(np.asarray(t_eval, dtype=float)))
         names, items, code_events = _event_list("control", events, 0.0)
+        for name, _, _, terminal in code_events:  # as the engine refuses --event NAME:terminal
+            if terminal > 0:
+                raise ValueError(f"events[{name.rsplit('-', 1)[1]}].terminal: a terminal event would end a hold, "
+                                 "not the run: not in a control run (non-terminal events only)")
         if items:
             flags["--event"] = ";".join(items)
     wheels, limits = _wheel_arrays(spacecraft)

@@ -356,7 +356,7 @@ void CommandLine::declare(Config& c) {
         "spacecraft's; adds columns wheel1..N (speeds) and\n"
         "u1..N (motor torques held from the row on). A control run takes fixed steps of --dt between\n"
         "the samples (or adaptive steps over each hold with --rtol), with a scheme that carries\n"
-        "wheels: simo-kappa, simo-collocation, simo-alpha, rk4 and their compositions, the splitting",
+        "wheels: simo-kappa, simo-collocation, simo-alpha, lgvi, rk4 and their compositions, the splitting",
         [&k](const std::string& v) {
           k.wheels_file = v;
           k.wheels = read_wheels(v);

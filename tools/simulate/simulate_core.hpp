@@ -411,9 +411,13 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
     throw invalid_input("--controller code: not in an ensemble (a controller given as code runs one loop at a time)");
   // --rtol: adaptive steps between the samples, each hold a new run (docs/control.md); a
   // terminal event would end a hold, not the run: refused.
-  if (c.adaptive.on)
+  if (c.adaptive.on) {
     for (const auto& [name, terminal] : c.adaptive.events)
       if (terminal > 0) throw invalid_input("--event " + name + ":terminal: not in a control run (non-terminal events only)");
+    for (const trompo::Event<double>& e : c.adaptive.code_events)  // the Python module's, added before this check
+      if (e.terminal > 0)
+        throw invalid_input("--event " + e.name + ": terminal: not in a control run (non-terminal events only)");
+  }
   if (c.processed) throw invalid_input("--composition blanes-casas-murua-13: not with " + by);
   if (!k.controller.empty() && !k.period) throw invalid_input("--controller: needs --control-period");
   if (k.period && k.controller.empty()) throw invalid_input("--control-period: needs --controller");

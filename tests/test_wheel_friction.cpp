@@ -417,6 +417,114 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
 
 // A symmetric scheme in a symmetric split is time-reversible: forward then backward under the
 // same held command returns to the start.
+// (W17.a)-(W17.b): a node of the dense output on a scene whose wheels have friction has the
+// motion's rates. Checked against the model written here on its own, y = (Π, h) in body
+// axes, Π̇ = Π × Ω, ḣ_i = u_i − c_i(h_i/J_s,i − g_i·Ω), Ω = J_hub⁻¹(Π − Σ h_i g_i): Ω̇ from
+// it to round-off, and Ω̈ against the central difference of its Ω̇ along RK4 steps of ±δ
+// (error O(δ²) ≈ 1e-9 relative). The friction's share of each rate is far above the bound,
+// so a node that left it out (the scene's rates before (W17.a)) fails.
+TEST_CASE("friction: the dense output's nodes have the motion's rates (W17.a-b)", "[control][friction]") {
+  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
+  using Sc = Scene<double, Wheels>;
+  Sc scene(four_wheels_with_friction().hub_body(J), four_wheels_with_friction());
+  Wheels& rw = scene.effect<Wheels>();
+  State<double> s;
+  s.time = 1.5;
+  s.rotation = SO3d::exp(Vec3(0.1, -0.3, 0.2));
+  s.omega = Vec3(0.3, -0.2, 0.5);
+  rw.start(s.time, s.omega);
+  const WheelVector u = four_commands(s.time);
+  rw.hold(s.time, u);
+  const DenseNode<double> node = dense_node(scene, s);
+
+  const Mat3 Jinv = scene.body().inertia_inverse();
+  const int n = rw.size();
+  struct Y {
+    Vec3 Pi;
+    WheelVector h;
+  };
+  auto omega_of = [&](const Y& y) { return Vec3(Jinv * (y.Pi - rw.axes() * y.h)); };
+  auto rate = [&](const Y& y, double c_scale) {  // c_scale 0: the same model without friction
+    const Vec3 w = omega_of(y);
+    Y d{y.Pi.cross(w), WheelVector(n)};
+    for (int i = 0; i < n; ++i)
+      d.h(i) = u(i) - c_scale * rw.frictions()(i) * (y.h(i) / rw.inertias()(i) - rw.axis(i).dot(w));
+    return d;
+  };
+  auto omega_dot = [&](const Y& y, double c_scale) {
+    const Y d = rate(y, c_scale);
+    return Vec3(Jinv * (d.Pi - rw.axes() * d.h));
+  };
+  auto rk4 = [&](Y y, double dt, double c_scale) {
+    auto add = [](const Y& a, const Y& b, double x) { return Y{a.Pi + x * b.Pi, a.h + x * b.h}; };
+    const Y k1 = rate(y, c_scale), k2 = rate(add(y, k1, dt / 2), c_scale), k3 = rate(add(y, k2, dt / 2), c_scale),
+            k4 = rate(add(y, k3, dt), c_scale);
+    y.Pi += dt / 6 * (k1.Pi + 2 * k2.Pi + 2 * k3.Pi + k4.Pi);
+    y.h += dt / 6 * (k1.h + 2 * k2.h + 2 * k3.h + k4.h);
+    return y;
+  };
+  const WheelVector h0 = rw.momenta(s.time);
+  const Y y0{scene.body().inertia() * s.omega + rw.axes() * h0, h0};
+  REQUIRE((omega_of(y0) - s.omega).norm() <= 1e-15);
+  const double delta = 1e-4;
+  auto omega_ddot = [&](double c_scale) {
+    return Vec3((omega_dot(rk4(y0, delta, c_scale), c_scale) - omega_dot(rk4(y0, -delta, c_scale), c_scale)) / (2 * delta));
+  };
+  const Vec3 wd = omega_dot(y0, 1), wd_free = omega_dot(y0, 0);
+  const Vec3 wdd = omega_ddot(1), wdd_free = omega_ddot(0);
+  INFO("Omega_dot " << node.omega_dot.transpose() << " model " << wd.transpose() << " without friction "
+                    << wd_free.transpose());
+  INFO("Omega_ddot " << node.omega_ddot.transpose() << " model " << wdd.transpose() << " without friction "
+                     << wdd_free.transpose());
+  CHECK((node.omega_dot - wd).norm() <= 1e-14 * wd.norm());
+  CHECK((node.omega_ddot - wdd).norm() <= 1e-8 * wdd.norm());
+  // the friction's share, far above both bounds
+  CHECK((wd - wd_free).norm() >= 1e-2 * wd.norm());
+  CHECK((wdd - wdd_free).norm() >= 1e-4 * wdd.norm());
+}
+
+// [W17] Between two nodes of an adaptive hold the wheels lie on the cubic Hermite of their
+// momenta with ḣ_i = u_i − c_i Ω_i at both ends (FrictionSplitStepper::wheels_at, which the
+// CLI's rows at --t-eval and its events call): the total momentum of the interpolated state
+// with them is π₀ to the interpolants' error, while the wheels' line at the step's end moved
+// by u alone (the friction left out) puts it far off.
+TEST_CASE("friction: the wheels between two nodes lie on their Hermite interpolant", "[control][friction]") {
+  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
+  using Sc = Scene<double, Wheels>;
+  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(four_wheels_with_friction().hub_body(J), four_wheels_with_friction()));
+  Wheels& rw = stepper.scene().effect<Wheels>();
+  State<double> s;
+  s.rotation = SO3d::exp(Vec3(0.1, -0.3, 0.2));
+  s.omega = Vec3(0.3, -0.2, 0.5);
+  rw.start(0.0, s.omega);
+  rw.hold(0.0, four_commands(0.0));
+  rw.prepare_friction(stepper.scene().body().inertia_inverse());
+  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+  AdaptiveOptions<double> opt;
+  opt.rtol = opt.atol = 1e-9;
+  double worst = 0, worst_unmoved = 0;
+  int rows = 0;
+  auto observe = [&](const DenseNode<double>& a, const DenseNode<double>& b, const auto& wheels_at) {
+    const double tm = (a.state.time + b.state.time) / 2;
+    const State<double> x = LieHermite<double>(a, b, true).state(tm);
+    const double unmoved = (stepper.scene().spatial_momentum(x) - pi0).norm();  // the wheels at b's line
+    wheels_at(tm);
+    const double moved = (stepper.scene().spatial_momentum(x) - pi0).norm();
+    worst = std::max(worst, moved);
+    worst_unmoved = std::max(worst_unmoved, unmoved);
+    ++rows;
+  };
+  const AdaptiveSummary<double> sum = detail::friction_split_hold(stepper, rw, s, 0.5, opt, observe);
+  REQUIRE(sum.ok());
+  INFO(rows << " steps: |pi - pi0|/|pi0| at their middles " << worst / pi0.norm() << ", with the wheels at the end's line "
+            << worst_unmoved / pi0.norm());
+  CHECK(rows >= 10);
+  CHECK(worst <= 1e-12 * pi0.norm());
+  CHECK(worst_unmoved >= 1e-6 * pi0.norm());
+  CHECK(s.time == 0.5);
+  CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+}
+
 TEST_CASE("friction: forward then backward returns to the start", "[control][friction]") {
   Wheels rw = four_wheels_with_friction();
   using Sc = Scene<double, Wheels>;

@@ -509,9 +509,8 @@ class Wheel:
     ``Js`` (kg m^2), initial speed ``speed0`` relative to the body (rad/s), motor torque limit
     ``max_torque`` (N m) and speed limit ``max_speed`` (rad/s); ``inf``: no limit. ``friction``
     is the viscous coefficient c (N m s/rad): the torque -c * speed between wheel and body, which
-    ``control`` applies around each step, fixed (``dt``) or adaptive (``rtol``; then not with
-    ``t_eval``, ``events`` or ``dense_output``, whose interpolants read rates without it;
-    docs/theory.md [W17])."""
+    ``control`` applies around each step, fixed (``dt``) or adaptive (``rtol``, with ``t_eval``,
+    ``events`` and ``dense_output``, whose interpolants see it; docs/theory.md [W17])."""
 
     def __init__(self, axis, Js, speed0=0.0, max_torque=math.inf, max_speed=math.inf, friction=0.0):
         self.axis = _array("axis", axis, (3,))
@@ -742,13 +741,6 @@ def control(spacecraft, state, t_end, *, period, controller, dt=None, rtol=None,
         raise ValueError(f"{what}: only with adaptive steps (give rtol)")
     if isinstance(every, bool) or not isinstance(every, (numbers.Integral, np.integer)) or every < 1:
         raise ValueError(f"every: must be a positive integer, got {every!r}")
-    if rtol is not None and any(w.friction > 0 for w in spacecraft.wheels):
-        what = ("t_eval" if t_eval is not None else "events" if events is not None
-                else "dense_output" if dense_output else None)
-        if what is not None:  # (the engine refuses them too; an event function would find nothing)
-            raise ValueError(f"{what}: a wheel has viscous friction, which adaptive steps (rtol) take in a split "
-                             f"step estimated by Richardson's rule: not with {what} (its interpolant reads rates "
-                             "that do not see the friction)")
     flags, target, fn = _control_flags(spacecraft, controller, t_end, period, dt, rtol, scheme, order, max_step_angle,
                                        composition)
     memory = {} if fn is not None else None

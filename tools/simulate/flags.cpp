@@ -351,8 +351,8 @@ void CommandLine::declare(Config& c) {
   value("--wheels", "FILE",
         "reaction wheels: CSV with header gx,gy,gz,Js,speed0,max_torque,max_speed[,friction] (axis in\n"
         "body axes, axial inertia, initial speed relative to the body in rad/s, limits in N m and rad/s,\n"
-        "'inf' for none, viscous friction in N m s/rad, which --rtol takes without --t-eval,\n"
-        "--event, --estimate defect, --control reversible); --inertia is then the whole\n"
+        "'inf' for none, viscous friction in N m s/rad, which --rtol takes without --estimate\n"
+        "defect and --control reversible); --inertia is then the whole\n"
         "spacecraft's; adds columns wheel1..N (speeds) and\n"
         "u1..N (motor torques held from the row on). A control run takes fixed steps of --dt between\n"
         "the samples (or adaptive steps over each hold with --rtol), with a scheme that carries\n"

@@ -571,7 +571,9 @@ struct ControlStepper {
 
 /// Between the samples with --rtol: integrate_adaptive over each hold (a new run each hold,
 /// its first step from --dt, else the driver's rule), with the run's events, `nodes(a, b,
-/// t_next)` at each accepted step; the driver's counts summed over the holds in `total`.
+/// t_next, wheels_at)` at each accepted step (wheels_at(t) puts the wheels at a time between
+/// a and b before a row from the interpolant: with friction, where they are, [W17]; else
+/// nothing to do); the driver's counts summed over the holds in `total`.
 template <class Nodes, class Sink>
 struct HoldAdaptive {
   const trompo::AdaptiveOptions<double>& options;
@@ -581,20 +583,21 @@ struct HoldAdaptive {
   trompo::AdaptiveSummary<double>* total;
   /// The scene's wheels when they have viscous friction (else nullptr): each hold then steps the
   /// split step [W17] (trompo::detail::friction_split_hold), as the library's AdaptiveSteps
-  /// does; the checks refuse --t-eval and --event with friction (their interpolants' rates do
-  /// not see it), so the nodes give rows at the steps only.
+  /// does, its nodes' rates and the wheels between them with the friction (W17.a-b).
   trompo::ReactionWheels<double>* friction_wheels = nullptr;
   static constexpr bool applies_friction = true;
   template <class StepperT, class Traj, class Obs>
   bool operator()(const StepperT& stepper, Traj& traj, double t_next, Obs&&, trompo::SampledSummary<double>& sum) const {
     using namespace trompo;
     auto observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const AdaptiveSummary<double>&) {
-      nodes(a, b, t_next);
+      nodes(a, b, t_next, [](double) {});
     };
     AdaptiveSummary<double> s;
-    if (friction_wheels != nullptr) {  // the rows' wheel speeds and total momentum at each step's own line
-      s = detail::friction_split_hold(stepper, *friction_wheels, traj, t_next, options,
-                                      [&](const DenseNode<double>& a, const DenseNode<double>& b) { nodes(a, b, t_next); });
+    if (friction_wheels != nullptr) {  // the rows' wheel speeds and total momentum at their own times
+      auto split_observer = [&](const DenseNode<double>& a, const DenseNode<double>& b, const auto& wheels_at) {
+        nodes(a, b, t_next, wheels_at);
+      };
+      s = detail::friction_split_hold(stepper, *friction_wheels, traj, t_next, options, split_observer, events, sink);
     } else {
       s = integrate_adaptive(stepper, traj, t_next, options, observer, events, sink);
     }
@@ -674,7 +677,7 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
       ++next;
     }
   };
-  auto nodes = [&](const DenseNode<double>& na, const DenseNode<double>& nb, double t_next) {
+  auto nodes = [&](const DenseNode<double>& na, const DenseNode<double>& nb, double t_next, const auto& wheels_at) {
     const double tb = nb.state.time;
     const bool at_sample = tb == t_next && t_next != t_end;  // its row comes with the next command
     if (!at_times) {
@@ -684,9 +687,11 @@ int run_control_with(StepperT st, const Config& c, trompo::State<double> s, RowS
     if (!due(tb)) return;
     const LieHermite<double> seg(na, nb, opt.quintic);
     while (due(tb) && !(at_sample && a.t_eval[next] == tb)) {
+      wheels_at(a.t_eval[next]);
       row(a.t_eval[next] == tb ? nb.state : seg.state(a.t_eval[next]));
       ++next;
     }
+    wheels_at(tb);
   };
   const auto& scene = stepper.scene();
   auto sink = [&](int index, const State<double>& x, bool) {

@@ -424,19 +424,18 @@ inline void check_control(const Config& c, const std::map<std::string, std::stri
   if (k.max_angle && k.controller.empty()) throw invalid_input("--max-step-angle: needs --controller");
   if (k.max_angle && c.adaptive.on) throw invalid_input("--max-step-angle: fixed steps only, not with --rtol");
   // [W17] Viscous wheel friction is split around the steps of the sampled driver, fixed or
-  // adaptive; adaptive steps estimate the split step by Richardson's rule and give rows at
-  // their steps only: what reads the scene's rates (which do not see the friction) is refused.
+  // adaptive; adaptive steps estimate the split step by Richardson's rule (the defect estimate
+  // and the reversible control judge one scheme step by the rates, not the split step), and
+  // their nodes, rows at --t-eval and events see the friction (W17.a-b).
   const bool friction = std::any_of(k.wheels.begin(), k.wheels.end(), [](const auto& w) { return w.friction > 0; });
   if (friction && c.adaptive.on) {
-    const char* with = !c.adaptive.t_eval.empty()                               ? "--t-eval"
-                       : !c.adaptive.events.empty() || !c.adaptive.code_events.empty() ? "--event"
-                       : c.adaptive.control == "reversible"                       ? "--control reversible"
-                       : c.adaptive.estimate == "defect"                          ? "--estimate defect"
-                                                                                  : nullptr;
+    const char* with = c.adaptive.control == "reversible" ? "--control reversible"
+                       : c.adaptive.estimate == "defect"  ? "--estimate defect"
+                                                          : nullptr;
     if (with != nullptr)
       throw invalid_input(std::string("--wheels: a wheel has viscous friction, which adaptive steps (--rtol) take in "
                                       "a split step estimated by Richardson's rule: not with ") +
-                          with + " (it reads rates that do not see the friction)");
+                          with);
   }
   if (friction && k.controller.empty())
     throw invalid_input("--wheels: a wheel has viscous friction, which the sampled driver applies: give --controller "

@@ -252,6 +252,20 @@ struct AdaptiveLoop {
   Sink& sink;
   AdaptiveSummary<Scalar> sum{};
 
+  /// The node of the motion at `s` (Ω̇, and Ω̈ with `second`): a stepper that carries what
+  /// moves with its trajectory outside the state (the friction's split step, the wheels' line
+  /// [W17]) first puts it at s's time.
+  DenseNode<Scalar> node_at(const State<Scalar>& s, bool second = true) const {
+    if constexpr (requires { stepper.wheels_at(s.time); }) stepper.wheels_at(s.time);
+    return dense_node(stepper.scene(), s, second);
+  }
+  /// Adds Ω̈ to a node (as node_at, at the node's own time).
+  void add_second(DenseNode<Scalar>& n) const {
+    if (n.second) return;
+    if constexpr (requires { stepper.wheels_at(n.state.time); }) stepper.wheels_at(n.state.time);
+    add_second_rate(stepper.scene(), n);
+  }
+
   AdaptiveLoop(const Stepper& st, Traj& tr, Scalar te, const AdaptiveOptions<Scalar>& o, Observer& ob, Sink& si,
                const std::vector<Event<Scalar>>* ev)
       : stepper(st), traj(tr), t_end(te), opt(o), observer(ob), sink(si) {
@@ -389,7 +403,7 @@ struct AdaptiveLoop {
     // estimate as O(h⁵), below the O(h³) local error, and it needs no Ω̈), else the quintic.
     const bool quintic_estimate = defect.quintic();
     if (!have_node_a) {
-      node_a = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(traj), quintic_estimate);
+      node_a = node_at(static_cast<const State<Scalar>&>(traj), quintic_estimate);
       have_node_a = true;
     }
     // In place (a hint memory): the state is kept, and put back by undo() on rejection.
@@ -402,8 +416,8 @@ struct AdaptiveLoop {
     status = r.status;
     if (!r.ok()) return Scalar(0);
     end.time = t_next;
-    node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(end), quintic_estimate);
-    if (quintic_estimate) add_second_rate(stepper.scene(), node_a);  // a cubic attempt's start
+    node_b = node_at(static_cast<const State<Scalar>&>(end), quintic_estimate);
+    if (quintic_estimate) add_second(node_a);  // a cubic attempt's start
     attempt_segment = LieHermite<Scalar>(node_a, node_b, quintic_estimate);
     return defect.squared_error(norm, {node_a, node_b, attempt_segment, h});
   }
@@ -508,7 +522,7 @@ struct AdaptiveLoop {
       since_hold = 0;
       held(now);
       held_now = true;
-      if (node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(now), node_b.second);
+      if (node_b_ready) node_b = node_at(static_cast<const State<Scalar>&>(now), node_b.second);
     }
     const State<Scalar>& before = stepped_in_place ? start_state : static_cast<const State<Scalar>&>(traj);
     if (!dense()) {
@@ -517,11 +531,11 @@ struct AdaptiveLoop {
       have_node_a = node_b_ready;
       return true;
     }
-    if (!have_node_a) node_a = dense_node(stepper.scene(), before);
-    if (!node_b_ready) node_b = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(now));
+    if (!have_node_a) node_a = node_at(before);
+    if (!node_b_ready) node_b = node_at(static_cast<const State<Scalar>&>(now));
     if (opt.quintic) {  // the estimate's nodes of an order-2 run lack Ω̈
-      add_second_rate(stepper.scene(), node_a);
-      add_second_rate(stepper.scene(), node_b);
+      add_second(node_a);
+      add_second(node_b);
     }
     // A finite state whose Ω̇ or Ω̈ overflows (|Ω| near 1e110, or a step without error
     // control gone far astray) has no interpolant: the step is not committed and the run
@@ -576,8 +590,8 @@ struct AdaptiveLoop {
         // real step fails, and the run goes on.
         if constexpr (observed) {
           if (real.time != a.state.time) {
-            DenseNode<Scalar> end = dense_node(stepper.scene(), static_cast<const State<Scalar>&>(real));
-            if (opt.quintic) add_second_rate(stepper.scene(), end);
+            DenseNode<Scalar> end = node_at(static_cast<const State<Scalar>&>(real));
+            if (opt.quintic) add_second(end);
             if (!rates_finite(end) || !interpolable(a, end)) {
               if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) sink(o.index, seg.state(o.t), false);
               continue;

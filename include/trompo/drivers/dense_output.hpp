@@ -43,7 +43,8 @@ struct DenseNode {
 };
 
 /// Ω̇ from the Euler equation J Ω̇ = Π × Ω + τ, Π = JΩ + h_r, given the body torque τ [D3];
-/// with wheels Π = J_hubΩ + h_w(t) and the motors' reaction −ḣ_w adds to τ [W1].
+/// with wheels Π = J_hubΩ + h_w(t) and the wheels' reaction −ḣ_w adds to τ [W1], ḣ_w with
+/// their viscous friction (W17.a): the rate of the motion, which the split step follows.
 template <class Scene>
 Eigen::Matrix<typename Scene::Scalar, 3, 1> euler_rate(const Scene& scene,
                                                        const Eigen::Matrix<typename Scene::Scalar, 3, 1>& omega,
@@ -51,7 +52,7 @@ Eigen::Matrix<typename Scene::Scalar, 3, 1> euler_rate(const Scene& scene,
                                                        typename Scene::Scalar t) {
   if constexpr (Scene::has_wheels)
     return scene.body().inertia_inverse() *
-           (scene.momentum(omega, t).cross(omega) - scene.wheel_momentum_rate() + torque);
+           (scene.momentum(omega, t).cross(omega) - scene.wheel_momentum_rate(t, omega) + torque);
   else
     return scene.body().inertia_inverse() * (scene.momentum(omega).cross(omega) + torque);
 }
@@ -94,9 +95,10 @@ void set_second_rate(const Scene& scene, const Eigen::Matrix<typename Scene::Sca
   using Vector3 = Eigen::Matrix<typename Scene::Scalar, 3, 1>;
   const State<typename Scene::Scalar>& s = n.state;
   Vector3 rhs;
-  if constexpr (Scene::has_wheels)  // Π̇ = JΩ̇ + ḣ_w [W1]
-    rhs = (scene.body().inertia() * n.omega_dot + scene.wheel_momentum_rate()).cross(s.omega) +
-          scene.momentum(s.omega, s.time).cross(n.omega_dot);
+  if constexpr (Scene::has_wheels)  // Π̇ = JΩ̇ + ḣ_w [W1], and −ḧ_w with friction (W17.b)
+    rhs = (scene.body().inertia() * n.omega_dot + scene.wheel_momentum_rate(s.time, s.omega)).cross(s.omega) +
+          scene.momentum(s.omega, s.time).cross(n.omega_dot) -
+          scene.wheel_momentum_acceleration(s.time, s.omega, n.omega_dot);
   else
     rhs = (scene.body().inertia() * n.omega_dot).cross(s.omega) + scene.momentum(s.omega).cross(n.omega_dot);
   rhs += torque_rate;

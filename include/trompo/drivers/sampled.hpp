@@ -417,11 +417,13 @@ class FrictionSplitStepper {
     k.energy_decays = false;
     return k;
   }
-  /// A trajectory at `t` with the wheels' present line.
+  /// A trajectory at `t` with the wheels' present line (kept as the hold's start, for
+  /// wheels_at).
   Trajectory start(const Traj& t) const {
     Trajectory r;
     static_cast<Traj&>(r) = t;
     r.line = wheels_->hold_line();
+    start_ = {t.time, Scalar(0), r.line, t.omega};
     return r;
   }
   /// S_h from `t` (its wheels first); on failure `t` and its line are untouched.
@@ -436,24 +438,31 @@ class FrictionSplitStepper {
     }
     t.line = wheels_->hold_line();
     last_ = (last_ + 1) % recent_size;
-    recent_[static_cast<std::size_t>(last_)] = {t.time, h, t.line};
+    recent_[static_cast<std::size_t>(last_)] = {t.time, h, t.line, t.omega};
     return rep;
   }
-  /// Puts the wheels at the line of the latest step that ended at time `t`, if one of the last
-  /// few did: the adaptive driver reports the inner steps of Richardson's attempt after all of
-  /// its steps, when the wheels are at the last one's line, and an observer reading them (the
-  /// total momentum, the wheels' speeds) must see each step's own. "At t" within a few ulps of
-  /// the step: the driver stores its own grid time t_b after a step of t_b − t from t, and
-  /// t + (t_b − t) is t_b only where the subtraction is exact (not across t = 0).
+  /// Puts the wheels where the motion has them at time `t`, from the last few steps: at the
+  /// line of the latest step that ended at t (or the hold's start), else, inside the latest
+  /// step that spans t, at the cubic Hermite interpolant of the momenta between its two ends,
+  /// with the rates ḣ_i = u_i − c_i Ω_i there [W17]; a time outside them leaves the wheels
+  /// as they are. The adaptive driver forms its nodes (node_at) and reports the inner steps
+  /// of Richardson's attempt after all of its steps, when the wheels are at the last one's
+  /// line, and what reads them at a node, a row between nodes or an event (the total
+  /// momentum, the wheels' speeds, Ω̇ with the friction) must see that time's. "At t" within
+  /// a few ulps of the step: the driver stores its own grid time t_b after a step of t_b − t
+  /// from t, and t + (t_b − t) is t_b only where the subtraction is exact (not across t = 0).
+  /// The latest step first: a refused attempt's steps are older than the accepted one's.
   void wheels_at(Scalar t) const {
-    using std::abs;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
+    if (const Recent* end = ended_at(t, Scalar(0))) {
+      wheels_->set_hold_line(end->line);
+      return;
+    }
     for (int k = 0; k < recent_size; ++k) {
-      const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
-      if (abs(r.time - t) <= Scalar(4) * eps * (abs(t) + abs(r.h))) {
-        wheels_->set_hold_line(r.line);
-        return;
-      }
+      const Recent& b = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
+      if (!(b.h != Scalar(0) && (t - (b.time - b.h)) * (b.time - t) > Scalar(0))) continue;  // t inside b's step
+      if (const Recent* a = ended_at(b.time - b.h, b.h))
+        wheels_->set_hold_line(a->time != b.time ? between(*a, b, t) : b.line);  // (a step of a few ulps)
+      return;
     }
   }
 
@@ -462,13 +471,42 @@ class FrictionSplitStepper {
   ReactionWheels<Scalar>* wheels_;
   struct Recent {
     Scalar time = std::numeric_limits<Scalar>::quiet_NaN();  ///< where the step ended
-    Scalar h = Scalar(0);                                     ///< its length
+    Scalar h = Scalar(0);                                     ///< its length (0: the hold's start)
     typename ReactionWheels<Scalar>::HoldLine line{};         ///< the line it left
+    Eigen::Matrix<Scalar, 3, 1> omega = Eigen::Matrix<Scalar, 3, 1>::Zero();  ///< Ω at its end
   };
-  /// The lines the last steps left (an attempt's m + 1 steps at most).
-  static constexpr int recent_size = AdaptiveOptions<Scalar>::max_substeps + 1;
+  /// The latest of the recent steps (then the hold's start) that ended at t, or nullptr; t
+  /// within a few ulps of t, of that step and of `span` (a step that starts there).
+  const Recent* ended_at(Scalar t, Scalar span) const {
+    using std::abs;
+    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
+    for (int k = 0; k < recent_size; ++k) {
+      const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
+      if (abs(r.time - t) <= Scalar(4) * eps * (abs(t) + abs(r.h) + abs(span))) return &r;
+    }
+    if (abs(start_.time - t) <= Scalar(4) * eps * (abs(t) + abs(span))) return &start_;
+    return nullptr;
+  }
+  /// The line at t between the ends a and b of one step: h_i(t) by the cubic Hermite of
+  /// (h_i, ḣ_i) at both ends, ḣ_i = u_i − c_i Ω_i with each end's own line and Ω.
+  typename ReactionWheels<Scalar>::HoldLine between(const Recent& a, const Recent& b, Scalar t) const {
+    wheels_->set_hold_line(a.line);
+    const auto rate_a = wheels_->momentum_rates(a.time, a.omega);
+    wheels_->set_hold_line(b.line);
+    const auto rate_b = wheels_->momentum_rates(b.time, b.omega);
+    const Scalar dt = b.time - a.time, x = (t - a.time) / dt, x2 = x * x, x3 = x2 * x;
+    const Scalar h00 = Scalar(2) * x3 - Scalar(3) * x2 + Scalar(1), h10 = x3 - Scalar(2) * x2 + x;
+    const Scalar h01 = Scalar(3) * x2 - Scalar(2) * x3, h11 = x3 - x2;
+    const auto& ha = a.line.momenta;
+    const auto& hb = b.line.momenta;
+    return {(h00 * ha + (h10 * dt) * rate_a + h01 * hb + (h11 * dt) * rate_b).eval(), t};
+  }
+  /// The lines the last steps left: an attempt's coarse step and m inner steps at most, and
+  /// the step before it.
+  static constexpr int recent_size = AdaptiveOptions<Scalar>::max_substeps + 2;
   mutable std::array<Recent, recent_size> recent_{};
   mutable int last_ = 0;
+  mutable Recent start_{};  ///< the hold's start (start())
 };
 
 /// [W17] The adaptive options of the split step: the estimate Richardson's (automatic becomes
@@ -483,30 +521,44 @@ AdaptiveOptions<Scalar> friction_split_options(AdaptiveOptions<Scalar> options) 
 
 /// [W17] One hold of adaptive steps with the wheels' viscous friction: integrate_adaptive on
 /// the split step (FrictionSplitStepper of `stepper` and its scene's `wheels`) from `traj` to
-/// t_next, with friction_split_options; `observe(a, b)` at each accepted step, the wheels put
-/// at b's own line first (NoObserver: none). `traj` and the wheels end at the last accepted
-/// step (a refused attempt may have moved the wheels). The library's AdaptiveSteps and the
-/// CLI's adaptive holds both step here.
-template <class StepperT, class Traj, class NodeObserver = NoObserver>
-AdaptiveSummary<typename StepperT::Scalar> friction_split_hold(const StepperT& stepper,
-                                                               ReactionWheels<typename StepperT::Scalar>& wheels,
-                                                               Traj& traj, typename StepperT::Scalar t_next,
-                                                               AdaptiveOptions<typename StepperT::Scalar> options,
-                                                               NodeObserver&& observe = {}) {
+/// t_next, with friction_split_options, and `events` (nullptr: none) to `sink`. At each
+/// accepted step `observe(a, b)` with the wheels at b's own line, or `observe(a, b, wheels_at)`
+/// for an observer that reads the wheels between the nodes (rows from the interpolant):
+/// wheels_at(t) puts them at time t of that step ([W17], FrictionSplitStepper::wheels_at);
+/// the sink's state comes with the wheels at its time. NoObserver: none. `traj` and the
+/// wheels end at the last accepted step (a refused attempt may have moved the wheels). The
+/// library's AdaptiveSteps and the CLI's adaptive holds both step here.
+template <class StepperT, class Traj, class NodeObserver = NoObserver, class Sink = NoEventSink>
+AdaptiveSummary<typename StepperT::Scalar> friction_split_hold(
+    const StepperT& stepper, ReactionWheels<typename StepperT::Scalar>& wheels, Traj& traj,
+    typename StepperT::Scalar t_next, AdaptiveOptions<typename StepperT::Scalar> options, NodeObserver&& observe = {},
+    const std::vector<Event<typename StepperT::Scalar>>* events = nullptr, Sink&& sink = {}) {
   using Scalar = typename StepperT::Scalar;
   const FrictionSplitStepper<StepperT, Traj> split(stepper, wheels);
   auto t = split.start(traj);
   options = friction_split_options(options);
-  AdaptiveSummary<Scalar> s;
-  if constexpr (std::is_same_v<std::decay_t<NodeObserver>, NoObserver>) {
-    s = integrate_adaptive(split, t, t_next, options);
-  } else {
-    auto node_observer = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+  const auto wheels_at = [&split](Scalar time) { split.wheels_at(time); };
+  auto node_observer = [&](const DenseNode<Scalar>& a, const DenseNode<Scalar>& b) {
+    if constexpr (!std::is_same_v<std::decay_t<NodeObserver>, NoObserver>) {
       split.wheels_at(b.state.time);
-      observe(a, b);
-    };
-    s = integrate_adaptive(split, t, t_next, options, node_observer);
-  }
+      if constexpr (std::is_invocable_v<NodeObserver&, const DenseNode<Scalar>&, const DenseNode<Scalar>&,
+                                        decltype(wheels_at)>)
+        observe(a, b, wheels_at);
+      else
+        observe(a, b);
+    }
+  };
+  auto event_sink = [&](int index, const State<Scalar>& x, bool terminal) {
+    if constexpr (!std::is_same_v<std::decay_t<Sink>, NoEventSink>) {
+      split.wheels_at(x.time);
+      sink(index, x, terminal);
+    }
+  };
+  AdaptiveSummary<Scalar> s;
+  if constexpr (std::is_same_v<std::decay_t<NodeObserver>, NoObserver> && std::is_same_v<std::decay_t<Sink>, NoEventSink>)
+    s = integrate_adaptive(split, t, t_next, options);
+  else
+    s = integrate_adaptive(split, t, t_next, options, node_observer, events, event_sink);
   static_cast<Traj&>(traj) = static_cast<const Traj&>(t);
   wheels.set_hold_line(t.line);
   return s;

@@ -135,6 +135,19 @@ class Scene {
     std::apply([&](const auto&... e) { ((add_wheel_rate(e, r)), ...); }, effects_);
     return r;
   }
+  /// [W17] Σ ḣ_w along the motion at (t, Ω): with the wheels' viscous friction (W17.a), which
+  /// the dense output's nodes read (euler_rate); wheel_momentum_rate() without friction.
+  Vector3 wheel_momentum_rate(Scalar t, const Vector3& omega) const {
+    Vector3 r = Vector3::Zero();
+    std::apply([&](const auto&... e) { ((add_wheel_rate(e, t, omega, r)), ...); }, effects_);
+    return r;
+  }
+  /// [W17] Σ ḧ_w along the motion (W17.b), given the body's rate Ω̇; zero without friction.
+  Vector3 wheel_momentum_acceleration(Scalar t, const Vector3& omega, const Vector3& omega_dot) const {
+    Vector3 r = Vector3::Zero();
+    std::apply([&](const auto&... e) { ((add_wheel_acceleration(e, t, omega, omega_dot, r)), ...); }, effects_);
+    return r;
+  }
   /// Whether some wheel effect has viscous friction [W17], which only integrate_sampled with
   /// FixedSteps applies (split around each step); integrate() and integrate_adaptive() refuse it.
   bool wheel_friction() const {
@@ -322,6 +335,16 @@ class Scene {
   template <class E>
   static void add_wheel_rate(const E& e, Vector3& r) {
     if constexpr (detail::time_dependent_rotor_effect<E>()) r += e.rotor_momentum_rate();
+  }
+  template <class E>
+  static void add_wheel_rate(const E& e, Scalar t, const Vector3& omega, Vector3& r) {
+    if constexpr (requires { e.rotor_momentum_rate(t, omega); }) r += e.rotor_momentum_rate(t, omega);
+    else if constexpr (detail::time_dependent_rotor_effect<E>()) r += e.rotor_momentum_rate();
+  }
+  template <class E>
+  static void add_wheel_acceleration(const E& e, Scalar t, const Vector3& omega, const Vector3& omega_dot, Vector3& r) {
+    if constexpr (requires { e.rotor_momentum_acceleration(t, omega, omega_dot); })
+      r += e.rotor_momentum_acceleration(t, omega, omega_dot);
   }
   template <class E>
   static bool has_friction(const E& e) {

@@ -232,6 +232,34 @@ class ReactionWheels {
     for (int i = 0; i < n_; ++i) r += u_(i) * axes_.col(i);
     return r;
   }
+  /// [W17] ḣ_r along the motion at (t, Ω), with the viscous friction: Σ (u_i − c_i Ω_i) g_i
+  /// (W17.a), what the dense output's nodes read. The schemes' steps read rotor_momentum_rate(),
+  /// the friction being split around them; without friction the two are equal.
+  Vector3 rotor_momentum_rate(Scalar t, const Vector3& omega) const {
+    const WheelVector rates = momentum_rates(t, omega);
+    Vector3 r = Vector3::Zero();
+    for (int i = 0; i < n_; ++i) r += rates(i) * axes_.col(i);
+    return r;
+  }
+  /// [W17] ḧ_r along the motion: Σ ḧ_i g_i with ḧ_i = −c_i (ḣ_i/J_s,i − g_i·Ω̇) (W17.b), Ω̇ the
+  /// body's rate with the friction; zero without friction (u is held).
+  Vector3 rotor_momentum_acceleration(Scalar t, const Vector3& omega, const Vector3& omega_dot) const {
+    const WheelVector rates = momentum_rates(t, omega);
+    Vector3 r = Vector3::Zero();
+    for (int i = 0; i < n_; ++i)
+      if (c_(i) != Scalar(0)) r -= c_(i) * (rates(i) / Js_(i) - axes_.col(i).dot(omega_dot)) * axes_.col(i);
+    return r;
+  }
+  /// [W17] The wheels' momentum rates along the motion at (t, Ω): ḣ_i = u_i − c_i Ω_i.
+  WheelVector momentum_rates(Scalar t, const Vector3& omega) const {
+    WheelVector rates = u_;
+    if (has_friction()) {  // (a wheel without friction keeps u_i exactly, whatever its speed)
+      const WheelVector w = speeds(t, omega);
+      for (int i = 0; i < n_; ++i)
+        if (c_(i) != Scalar(0)) rates(i) -= c_(i) * w(i);
+    }
+    return rates;
+  }
   /// The wheels' share of the kinetic energy, Σ h_i(t)²/(2 J_s,i) [W3].
   Scalar rotor_energy(Scalar t) const {
     Scalar e(0);

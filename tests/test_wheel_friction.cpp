@@ -45,6 +45,23 @@ WheelVector four_commands(double t) {
   return u;
 }
 
+/// Simo-κ on four_wheels_with_friction()'s hub of a skew spacecraft, `s` set to its start,
+/// the wheels started there with four_commands(0) held from t = 0 and their friction's flow
+/// prepared: one hold of the adaptive driver, stepped by hand or by friction_split_hold.
+using FrictionScene = Scene<double, Wheels>;
+Stepper<SimoKappa, FrictionScene> held_four_wheels(State<double>& s) {
+  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
+  Stepper<SimoKappa, FrictionScene> stepper(SimoKappa{},
+                                            FrictionScene(four_wheels_with_friction().hub_body(J), four_wheels_with_friction()));
+  Wheels& rw = stepper.scene().effect<Wheels>();
+  s.rotation = SO3d::exp(Vec3(0.1, -0.3, 0.2));
+  s.omega = Vec3(0.3, -0.2, 0.5);
+  rw.start(0.0, s.omega);
+  rw.hold(0.0, four_commands(0.0));
+  rw.prepare_friction(stepper.scene().body().inertia_inverse());
+  return stepper;
+}
+
 // One axis: a hub diag(2, 2, Jh) spinning about z with a wheel on z. Π_z = Jh ω + h is
 // constant (Ω × Π = 0), and ḣ = u − c(h/J_s − ω) with ω = (Π − h)/Jh is linear:
 // h(t) = h∞ + (h0 − h∞) e^{−k(t − t_k)}, k = c(1/J_s + 1/Jh), h∞ = (u + cΠ/Jh)/k.
@@ -415,8 +432,6 @@ TEST_CASE("friction: three axes against an independent reference, orders 2 and 4
   }
 }
 
-// A symmetric scheme in a symmetric split is time-reversible: forward then backward under the
-// same held command returns to the start.
 // (W17.a)-(W17.b): a node of the dense output on a scene whose wheels have friction has the
 // motion's rates. Checked against the model written here on its own, y = (Π, h) in body
 // axes, Π̇ = Π × Ω, ḣ_i = u_i − c_i(h_i/J_s,i − g_i·Ω), Ω = J_hub⁻¹(Π − Σ h_i g_i): Ω̇ from
@@ -489,42 +504,120 @@ TEST_CASE("friction: the dense output's nodes have the motion's rates (W17.a-b)"
 // with them is π₀ to the interpolants' error, while the wheels' line at the step's end moved
 // by u alone (the friction left out) puts it far off.
 TEST_CASE("friction: the wheels between two nodes lie on their Hermite interpolant", "[control][friction]") {
-  const Mat3 J = (Mat3() << 9, 0.2, -0.1, 0.2, 8, 0.15, -0.1, 0.15, 6).finished();
-  using Sc = Scene<double, Wheels>;
-  Stepper<SimoKappa, Sc> stepper(SimoKappa{}, Sc(four_wheels_with_friction().hub_body(J), four_wheels_with_friction()));
-  Wheels& rw = stepper.scene().effect<Wheels>();
-  State<double> s;
-  s.rotation = SO3d::exp(Vec3(0.1, -0.3, 0.2));
-  s.omega = Vec3(0.3, -0.2, 0.5);
-  rw.start(0.0, s.omega);
-  rw.hold(0.0, four_commands(0.0));
-  rw.prepare_friction(stepper.scene().body().inertia_inverse());
-  const Vec3 pi0 = stepper.scene().spatial_momentum(s);
-  AdaptiveOptions<double> opt;
-  opt.rtol = opt.atol = 1e-9;
-  double worst = 0, worst_unmoved = 0;
-  int rows = 0;
-  auto observe = [&](const DenseNode<double>& a, const DenseNode<double>& b, const auto& wheels_at) {
-    const double tm = (a.state.time + b.state.time) / 2;
-    const State<double> x = LieHermite<double>(a, b, true).state(tm);
-    const double unmoved = (stepper.scene().spatial_momentum(x) - pi0).norm();  // the wheels at b's line
-    wheels_at(tm);
-    const double moved = (stepper.scene().spatial_momentum(x) - pi0).norm();
-    worst = std::max(worst, moved);
-    worst_unmoved = std::max(worst_unmoved, unmoved);
-    ++rows;
-  };
-  const AdaptiveSummary<double> sum = detail::friction_split_hold(stepper, rw, s, 0.5, opt, observe);
-  REQUIRE(sum.ok());
-  INFO(rows << " steps: |pi - pi0|/|pi0| at their middles " << worst / pi0.norm() << ", with the wheels at the end's line "
-            << worst_unmoved / pi0.norm());
-  CHECK(rows >= 10);
-  CHECK(worst <= 1e-12 * pi0.norm());
-  CHECK(worst_unmoved >= 1e-6 * pi0.norm());
-  CHECK(s.time == 0.5);
-  CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+  // Doubling (m = 2), and Richardson's m = 8 from a first step of the whole hold, which the
+  // driver refuses: the refused attempts' steps are in the stepper's memory of recent steps
+  // when the accepted ones are reported, and the times checked include their inner ends
+  // (t0 + k·0.5/8), where a refused step's line must not be taken.
+  const double T = 0.5;  // one hold
+  for (const int m : {2, 8}) {
+    State<double> s;
+    auto stepper = held_four_wheels(s);
+    Wheels& rw = stepper.scene().effect<Wheels>();
+    const Vec3 pi0 = stepper.scene().spatial_momentum(s);
+    AdaptiveOptions<double> opt;
+    opt.rtol = opt.atol = 1e-9;
+    if (m == 8) {
+      opt.estimate = ErrorEstimate::richardson;
+      opt.substeps = 8;
+      opt.first_step = T;
+    }
+    double worst = 0, worst_unmoved = 0;
+    int rows = 0;
+    auto observe = [&](const DenseNode<double>& a, const DenseNode<double>& b, const auto& wheels_at) {
+      std::vector<double> times{(a.state.time + b.state.time) / 2};
+      for (int k = 1; k < 8; ++k)
+        if ((k * T / 8 - a.state.time) * (b.state.time - k * T / 8) > 0) times.push_back(k * T / 8);
+      for (const double t : times) {
+        const State<double> x = LieHermite<double>(a, b, true).state(t);
+        wheels_at(b.state.time);
+        const double unmoved = (stepper.scene().spatial_momentum(x) - pi0).norm();  // the wheels at b's line
+        wheels_at(t);
+        const double moved = (stepper.scene().spatial_momentum(x) - pi0).norm();
+        worst = std::max(worst, moved);
+        worst_unmoved = std::max(worst_unmoved, unmoved);
+        ++rows;
+      }
+    };
+    const AdaptiveSummary<double> sum = detail::friction_split_hold(stepper, rw, s, T, opt, observe);
+    REQUIRE(sum.ok());
+    INFO("m = " << m << ", " << sum.accepted << " steps, " << sum.rejected << " refused, " << rows
+                << " times: |pi - pi0|/|pi0| " << worst / pi0.norm() << ", with the wheels at the end's line "
+                << worst_unmoved / pi0.norm());
+    CHECK(rows >= 10);
+    if (m == 8) CHECK(sum.rejected >= 1);
+    CHECK(worst <= 1e-12 * pi0.norm());
+    CHECK(worst_unmoved >= 1e-6 * pi0.norm());
+    CHECK(s.time == T);
+    CHECK((stepper.scene().spatial_momentum(s) - pi0).norm() <= 1e-14 * pi0.norm());
+  }
 }
 
+// The split stepper's memory of its last steps, read by wheels_at as the adaptive driver
+// leaves it: an accepted step, a refused attempt (its coarse step and m inner steps), then
+// the accepted attempt. A time inside an accepted inner step takes the Hermite of that step's
+// own two ends: in its first inner step after a refused attempt of m = 16 that pushed the
+// step before out of memory, and at a refused inner step's end that lies inside an accepted
+// step (both once gave the wrong line: unchanged, and the refused one).
+TEST_CASE("friction: wheels_at reads the accepted steps, not a refused attempt's", "[control][friction]") {
+  using St = Stepper<SimoKappa, FrictionScene>;
+  State<double> s;
+  St stepper = held_four_wheels(s);
+  Wheels& rw = stepper.scene().effect<Wheels>();
+  const detail::FrictionSplitStepper<St, State<double>> split(stepper, rw);
+  using Traj = detail::FrictionSplitStepper<St, State<double>>::Trajectory;
+  // The Hermite of the wheels' momenta inside a step from a to b, written here.
+  auto hermite = [&](const Traj& a, const Traj& b, double t) {
+    rw.set_hold_line(a.line);
+    const WheelVector ra = rw.momentum_rates(a.time, a.omega);
+    rw.set_hold_line(b.line);
+    const WheelVector rb = rw.momentum_rates(b.time, b.omega);
+    const double d = b.time - a.time, x = (t - a.time) / d;
+    return WheelVector((2 * x * x * x - 3 * x * x + 1) * a.line.momenta + (x * x * x - 2 * x * x + x) * d * ra +
+                       (3 * x * x - 2 * x * x * x) * b.line.momenta + (x * x * x - x * x) * d * rb);
+  };
+  auto wheels_at = [&](double t) {
+    split.wheels_at(t);
+    return WheelVector(rw.hold_line().momenta);
+  };
+  for (const int m : {16, 4}) {
+    Traj t = split.start(s);
+    REQUIRE(split.step(t, 0.01).ok());  // accepted
+    const Traj ta = t;
+    const double h_refused = m == 16 ? 0.16 : 0.04, h_inner = 0.016;  // m = 4: its inner ends 0.02, 0.03, ...
+    {  // a refused attempt from ta: its coarse step, then m inner steps (the driver drops them)
+      Traj coarse = ta, fine = ta;
+      REQUIRE(split.step(coarse, h_refused).ok());
+      for (int k = 0; k < m; ++k) REQUIRE(split.step(fine, h_refused / m).ok());
+    }
+    // the accepted attempt from ta: its coarse step, then m inner steps of h_inner / m
+    Traj coarse = ta, fine = ta;
+    REQUIRE(split.step(coarse, h_inner).ok());
+    std::vector<Traj> ends{ta};
+    for (int k = 0; k < m; ++k) {
+      REQUIRE(split.step(fine, h_inner / m).ok());
+      ends.push_back(fine);
+    }
+    const double tol = 1e-14 * rw.hold_line().momenta.norm();
+    // inside the first inner step
+    const double t1 = (ends[0].time + ends[1].time) / 2;
+    INFO("m = " << m);
+    CHECK((wheels_at(t1) - hermite(ends[0], ends[1], t1)).norm() <= tol);
+    // at each accepted inner end: its own line
+    for (std::size_t k = 1; k < ends.size(); ++k) CHECK((wheels_at(ends[k].time) - ends[k].line.momenta).norm() == 0);
+    // at a refused inner end inside an accepted step (m = 4: 0.02 inside [0.018, 0.022])
+    if (m == 4) {
+      const double tr = 0.01 + h_refused / m;
+      std::size_t k = 1;
+      while (ends[k].time < tr) ++k;
+      REQUIRE(ends[k - 1].time < tr);
+      REQUIRE(tr < ends[k].time);
+      CHECK((wheels_at(tr) - hermite(ends[k - 1], ends[k], tr)).norm() <= tol);
+    }
+  }
+}
+
+// A symmetric scheme in a symmetric split is time-reversible: forward then backward under the
+// same held command returns to the start.
 TEST_CASE("friction: forward then backward returns to the start", "[control][friction]") {
   Wheels rw = four_wheels_with_friction();
   using Sc = Scene<double, Wheels>;
@@ -637,7 +730,7 @@ TEST_CASE("friction: bad input and the drivers that cannot apply it are refused"
   REQUIRE_THROWS_WITH(integrate_adaptive(stepper, s, 1.0, opt), Catch::Contains("viscous friction"));
   auto none = [](const Sample<double>&) { return Command<double>{}; };
   // Adaptive holds estimate the split step by Richardson's rule; the defect estimate and the
-  // reversible control read rates that do not see the friction.
+  // reversible control, built for a scheme's own step, are refused.
   AdaptiveOptions<double> defect = opt, reversible = opt;
   defect.estimate = ErrorEstimate::defect;
   reversible.control = StepControl::reversible;

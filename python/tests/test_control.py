@@ -349,6 +349,10 @@ def test_wheel_friction_keeps_pi_and_takes_energy_out(tmp_path):
         assert np.max(np.abs(at.wheel_speeds[k] - ref.wheel_speeds[j])) <= 3e-7
         assert np.linalg.norm(at.pi[k] - ref.pi[0]) <= 1e-12 * np.linalg.norm(ref.pi[0])
     assert len(at.t_events[0]) == 1 and abs(at.t_events[0][0] - 7.3) <= 1e-12
+    j = int(np.argmin(np.abs(ref.t - 7.3)))  # the state at the event, from its step's interpolant
+    assert abs(ref.t[j] - 7.3) <= 1e-9
+    assert np.max(np.abs(at.y_events[0][0][:9] - ref.R[j].ravel())) <= 3e-7
+    assert np.max(np.abs(at.y_events[0][0][9:] - ref.W[j])) <= 3e-7
     np.testing.assert_array_equal(at.sol(7.65)[:9], at.R[1].ravel())
     np.testing.assert_array_equal(at.sol(7.65)[9:], at.W[1])
 

@@ -30,7 +30,8 @@
 // AdaptiveSteps adapts the split step itself: integrate_adaptive runs on FrictionSplitStepper,
 // whose trajectory carries the wheels' hold line (a refused attempt puts the wheels back with
 // the state), under tolerance control with Richardson's estimate (the defect estimate [D4]
-// and reversible control read rates that do not see the friction, and are refused). A
+// and reversible control, built for a scheme's own step, are refused); its dense nodes see
+// the friction, and the wheels between them lie on their Hermite interpolant (W17.a-b). A
 // `between` of one's own is refused with friction unless it declares applies_friction (the
 // CLI's adaptive holds, which step FrictionSplitStepper themselves).
 //
@@ -423,13 +424,14 @@ class FrictionSplitStepper {
     Trajectory r;
     static_cast<Traj&>(r) = t;
     r.line = wheels_->hold_line();
-    start_ = {t.time, Scalar(0), r.line, t.omega};
+    start_ = {t.time, r.line, t.omega};
     return r;
   }
   /// S_h from `t` (its wheels first); on failure `t` and its line are untouched.
   StepReport<Scalar> step(Trajectory& t, Scalar h) const {
     wheels_->set_hold_line(t.line);
     const Traj saved = t;
+    const End start{t.time, t.line, t.omega};
     const StepReport<Scalar> rep = friction_split_attempt(*stepper_, *wheels_, static_cast<Traj&>(t), t.time + h);
     if (!rep.ok()) {
       static_cast<Traj&>(t) = saved;
@@ -438,58 +440,64 @@ class FrictionSplitStepper {
     }
     t.line = wheels_->hold_line();
     last_ = (last_ + 1) % recent_size;
-    recent_[static_cast<std::size_t>(last_)] = {t.time, h, t.line, t.omega};
+    recent_[static_cast<std::size_t>(last_)] = {start, {t.time, t.line, t.omega}};
     return rep;
   }
-  /// Puts the wheels where the motion has them at time `t`, from the last few steps: at the
-  /// line of the latest step that ended at t (or the hold's start), else, inside the latest
-  /// step that spans t, at the cubic Hermite interpolant of the momenta between its two ends,
-  /// with the rates ḣ_i = u_i − c_i Ω_i there [W17]; a time outside them leaves the wheels
-  /// as they are. The adaptive driver forms its nodes (node_at) and reports the inner steps
-  /// of Richardson's attempt after all of its steps, when the wheels are at the last one's
-  /// line, and what reads them at a node, a row between nodes or an event (the total
-  /// momentum, the wheels' speeds, Ω̇ with the friction) must see that time's. "At t" within
-  /// a few ulps of the step: the driver stores its own grid time t_b after a step of t_b − t
-  /// from t, and t + (t_b − t) is t_b only where the subtraction is exact (not across t = 0).
-  /// The latest step first: a refused attempt's steps are older than the accepted one's.
+  /// Puts the wheels where the motion has them at time `t`, from the last few steps, the
+  /// latest first: at the line a step left at its end or found at its start, when t is there
+  /// within a few ulps, or at the cubic Hermite interpolant of the momenta between its two
+  /// ends when t is inside it, with the rates ḣ_i = u_i − c_i Ω_i there [W17]; else at the
+  /// hold's start if t is there; a time outside them all leaves the wheels as they are. The
+  /// latest first, since an attempt the driver refused is older than the one it accepted,
+  /// whose steps cover the attempt's span: a refused step's line is not taken where an
+  /// accepted step covers t. The adaptive driver forms its nodes (node_at) and reports the
+  /// inner steps of Richardson's attempt after all of its steps, when the wheels are at the
+  /// last one's line, and what reads them at a node, a row between nodes or an event (the
+  /// total momentum, the wheels' speeds, Ω̇ with the friction) must see that time's. "At t"
+  /// within a few ulps of the step: the driver stores its own grid time t_b after a step of
+  /// t_b − t from t, and t + (t_b − t) is t_b only where the subtraction is exact (not across
+  /// t = 0).
   void wheels_at(Scalar t) const {
-    if (const Recent* end = ended_at(t, Scalar(0))) {
-      wheels_->set_hold_line(end->line);
-      return;
-    }
     for (int k = 0; k < recent_size; ++k) {
-      const Recent& b = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
-      if (!(b.h != Scalar(0) && (t - (b.time - b.h)) * (b.time - t) > Scalar(0))) continue;  // t inside b's step
-      if (const Recent* a = ended_at(b.time - b.h, b.h))
-        wheels_->set_hold_line(a->time != b.time ? between(*a, b, t) : b.line);  // (a step of a few ulps)
-      return;
+      const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
+      const Scalar span = r.end.time - r.start.time;
+      if (near(r.end.time, t, span)) {
+        wheels_->set_hold_line(r.end.line);
+        return;
+      }
+      if (near(r.start.time, t, span)) {
+        wheels_->set_hold_line(r.start.line);
+        return;
+      }
+      if ((t - r.start.time) * (r.end.time - t) > Scalar(0)) {  // inside the step
+        wheels_->set_hold_line(between(r.start, r.end, t));
+        return;
+      }
     }
+    if (near(start_.time, t, Scalar(0))) wheels_->set_hold_line(start_.line);
   }
 
  private:
   const StepperT* stepper_;
   ReactionWheels<Scalar>* wheels_;
-  struct Recent {
-    Scalar time = std::numeric_limits<Scalar>::quiet_NaN();  ///< where the step ended
-    Scalar h = Scalar(0);                                     ///< its length (0: the hold's start)
-    typename ReactionWheels<Scalar>::HoldLine line{};         ///< the line it left
-    Eigen::Matrix<Scalar, 3, 1> omega = Eigen::Matrix<Scalar, 3, 1>::Zero();  ///< Ω at its end
+  /// One end of a step: its time, the wheels' line and Ω there.
+  struct End {
+    Scalar time = std::numeric_limits<Scalar>::quiet_NaN();
+    typename ReactionWheels<Scalar>::HoldLine line{};
+    Eigen::Matrix<Scalar, 3, 1> omega = Eigen::Matrix<Scalar, 3, 1>::Zero();
   };
-  /// The latest of the recent steps (then the hold's start) that ended at t, or nullptr; t
-  /// within a few ulps of t, of that step and of `span` (a step that starts there).
-  const Recent* ended_at(Scalar t, Scalar span) const {
+  /// A step taken: where it started and where it ended.
+  struct Recent {
+    End start, end;
+  };
+  /// Whether a and b are the same time within a few ulps of them and of a step's `span`.
+  static bool near(Scalar a, Scalar b, Scalar span) {
     using std::abs;
-    constexpr Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    for (int k = 0; k < recent_size; ++k) {
-      const Recent& r = recent_[static_cast<std::size_t>((last_ - k + recent_size) % recent_size)];
-      if (abs(r.time - t) <= Scalar(4) * eps * (abs(t) + abs(r.h) + abs(span))) return &r;
-    }
-    if (abs(start_.time - t) <= Scalar(4) * eps * (abs(t) + abs(span))) return &start_;
-    return nullptr;
+    return abs(a - b) <= Scalar(4) * std::numeric_limits<Scalar>::epsilon() * (abs(b) + abs(span));
   }
-  /// The line at t between the ends a and b of one step: h_i(t) by the cubic Hermite of
-  /// (h_i, ḣ_i) at both ends, ḣ_i = u_i − c_i Ω_i with each end's own line and Ω.
-  typename ReactionWheels<Scalar>::HoldLine between(const Recent& a, const Recent& b, Scalar t) const {
+  /// The line at t inside one step: h_i(t) by the cubic Hermite of (h_i, ḣ_i) at its two ends
+  /// a and b, ḣ_i = u_i − c_i Ω_i with each end's own line and Ω.
+  typename ReactionWheels<Scalar>::HoldLine between(const End& a, const End& b, Scalar t) const {
     wheels_->set_hold_line(a.line);
     const auto rate_a = wheels_->momentum_rates(a.time, a.omega);
     wheels_->set_hold_line(b.line);
@@ -501,17 +509,17 @@ class FrictionSplitStepper {
     const auto& hb = b.line.momenta;
     return {(h00 * ha + (h10 * dt) * rate_a + h01 * hb + (h11 * dt) * rate_b).eval(), t};
   }
-  /// The lines the last steps left: an attempt's coarse step and m inner steps at most, and
-  /// the step before it.
+  /// The last steps taken: an attempt's coarse step and its m inner steps at most (the
+  /// accepted attempt's are the latest when the driver reads the wheels), and one more.
   static constexpr int recent_size = AdaptiveOptions<Scalar>::max_substeps + 2;
   mutable std::array<Recent, recent_size> recent_{};
   mutable int last_ = 0;
-  mutable Recent start_{};  ///< the hold's start (start())
+  mutable End start_{};  ///< the hold's start (start())
 };
 
 /// [W17] The adaptive options of the split step: the estimate Richardson's (automatic becomes
 /// doubling, or Richardson's with the `substeps` given; integrate_sampled refuses the defect
-/// estimate and the reversible control with friction, which read rates without it).
+/// estimate and the reversible control with friction, built for a scheme's own step).
 template <class Scalar>
 AdaptiveOptions<Scalar> friction_split_options(AdaptiveOptions<Scalar> options) {
   if (options.estimate == ErrorEstimate::automatic)
@@ -620,15 +628,15 @@ SampledSummary<typename StepperT::Scalar> integrate_sampled(StepperT& stepper, S
                      "leave it out (unless it applies it and says so: applies_friction)");
       } else if constexpr (detail::is_adaptive_steps<Between>::value) {
         // The split step's error is estimated by Richardson's rule; the defect [D4] and the
-        // reversible control [A5] read the rates Ω̇ of the scene, which do not see the friction.
+        // reversible control [A5] are built for a scheme's own step, not for the split step.
         if (between.options.estimate == ErrorEstimate::defect)
           detail::fail("sampled: the wheels have viscous friction, whose split step (docs/theory.md [W17]) "
-                       "adaptive steps estimate by Richardson's rule: estimate = defect reads rates that do not "
-                       "see the friction; use automatic, doubling or richardson");
+                       "adaptive steps estimate by Richardson's rule: estimate = defect is built for a scheme's "
+                       "own step; use automatic, doubling or richardson");
         if (between.options.control != StepControl::tolerance)
           detail::fail("sampled: the wheels have viscous friction, whose split step (docs/theory.md [W17]) "
-                       "adaptive steps take under tolerance control: control = reversible reads rates that do "
-                       "not see the friction");
+                       "adaptive steps take under tolerance control: control = reversible is built for a "
+                       "scheme's own step");
       }
       // The processed composition steps a kernel that is not the output state: a flow on the
       // output would be lost at the next kernel step while the wheels kept its momentum.

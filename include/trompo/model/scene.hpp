@@ -148,8 +148,9 @@ class Scene {
     std::apply([&](const auto&... e) { ((add_wheel_acceleration(e, t, omega, omega_dot, r)), ...); }, effects_);
     return r;
   }
-  /// Whether some wheel effect has viscous friction [W17], which only integrate_sampled with
-  /// FixedSteps applies (split around each step); integrate() and integrate_adaptive() refuse it.
+  /// Whether some wheel effect has viscous friction [W17], which only integrate_sampled applies
+  /// (split around each step, FixedSteps or AdaptiveSteps); integrate() and
+  /// integrate_adaptive() refuse it.
   bool wheel_friction() const {
     bool f = false;
     if constexpr (has_wheels)

@@ -6,7 +6,7 @@
 #      bench at -O0 (a compile check: TROMPO_BENCH_COMPILE_CHECK; the main job builds it
 #      optimised)
 #   3. build (clang, ASan + UBSan) the contract tests (TROMPO_TEST_SET=contracts) and the
-#      libFuzzer target, beside step 2
+#      libFuzzer target
 #   4. ctest on the Release build (the pytest suite is its python:pytest entry), with a
 #      bounded libFuzzer run of the step contract beside it (it replays fuzz/corpus first)
 #   5. the API reference (Doxygen, target docs): fails on any warning, e.g. an undocumented
@@ -24,7 +24,7 @@ scripts/deps.sh ninja-build clang libclang-rt-14-dev doxygen graphviz python3 \
   pybind11-dev python3-pybind11 python3-numpy python3-pytest python3-dask python3-distributed python3-matplotlib python3-dev \
   libcli11-dev
 
-echo "== build (Release at -O1, -Werror), and the sanitizer build beside it (its output follows)"
+echo "== build (Release at -O1, -Werror)"
 # Ninja (from ninja-build): a build dir made earlier by another generator is made anew.
 if [ -f build/test/CMakeCache.txt ] && ! grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja$' build/test/CMakeCache.txt; then
   rm -rf build/test
@@ -35,25 +35,10 @@ fi
 # bench's business.
 cmake -S . -B build/test -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
   -DTROMPO_WARNINGS_AS_ERRORS=ON -DTROMPO_TEST_SET=numbers -DTROMPO_BENCH_COMPILE_CHECK=ON >/dev/null
-# The sanitizer build runs beside the Release build: one after the other, each ended on one
-# core while the other idled (the CLI engine's unit, the fuzz target's: 258 s and 361 s
-# alone, ci81: 597 + 363 s); together they keep both cores busy to the end.
-mkdir -p build
-asan_log=build/sanitize-build.log
-scripts/sanitize.sh build >"$asan_log" 2>&1 &
-asan_pid=$!
-trap 'kill "$asan_pid" 2>/dev/null || true' EXIT
 cmake --build build/test -j"$jobs"
 
 echo "== build (sanitizers)"
-asan_rc=0
-wait "$asan_pid" || asan_rc=$?
-trap - EXIT
-cat "$asan_log"
-if [ "$asan_rc" -ne 0 ]; then
-  echo "sanitizer build: failed (exit $asan_rc)" >&2
-  exit 1
-fi
+scripts/sanitize.sh build
 
 echo "== ctest (Release), and the fuzz run beside it (its output follows the docs)"
 fuzz_log=build/fuzz.log
